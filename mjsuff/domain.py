@@ -1,0 +1,106 @@
+"""The Domain seam: the one place where tabular and MuJoCo code differ.
+
+A *domain instance* is one randomized task with hidden true weights ``w*`` (``‖w*‖₂ = 1``). Rewards
+are linear in ``k`` features, ``R_w = w·φ``, so the value of any policy under any number of reward
+vectors is a matrix product with that policy's feature expectations (``V^π_w = w·μ_π``). Everything
+above this interface (posterior sampling, bounds, stopping rules, the experiment loop) is shared.
+
+Values are kept *per evaluation start*: ``μ`` has shape ``(S, k)`` and ``V*`` has shape ``(N, S)``
+for ``S`` evaluation starts; the start distribution ``start_weights`` (shape ``(S,)``) averages them.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+Policy = Any
+"""A domain's robot policy: opaque above the seam (an action per state for tabular domains)."""
+
+
+@dataclass(frozen=True)
+class Demo:
+    """One demonstration.
+
+    Attributes:
+        start: Index into the domain's demonstration pool (``Domain.pool``).
+        action: For state-action demos (tabular), the demonstrated action; ``-1`` otherwise.
+        poor: True when the demonstrator deliberately gave a poor demo (noise ablation).
+        data: Domain-specific arrays (trajectory states, controls, features, ...).
+    """
+
+    start: int
+    action: int = -1
+    poor: bool = False
+    data: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+class Domain(abc.ABC):
+    """A randomized task instance with linear rewards, seen through feature expectations."""
+
+    #: Number of reward features ``k``.
+    num_features: int
+    #: Hidden true weights ``w*`` (shape ``(k,)``, unit norm). Used only by the expert and for scoring.
+    true_weights: np.ndarray
+    #: Probability of each evaluation start (shape ``(S,)``, sums to one).
+    start_weights: np.ndarray
+    #: Evaluation-start index of every start a demonstration can be asked from (shape ``(P,)``).
+    pool: np.ndarray
+
+    @abc.abstractmethod
+    def demonstrate(self, start: int, rng: np.random.Generator, poor: bool = False) -> Demo:
+        """The expert's demonstration from pool entry ``start`` (a poor one when ``poor``)."""
+
+    @abc.abstractmethod
+    def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
+        """Boltzmann log-likelihood ``log P(D | w)`` for a batch ``(N, k)`` of weights -> ``(N,)``."""
+
+    @abc.abstractmethod
+    def plan(self, w: np.ndarray) -> Policy:
+        """The robot's (optimal) policy for reward weights ``w``."""
+
+    @abc.abstractmethod
+    def start_feature_expectations(self, policy: Policy) -> np.ndarray:
+        """Discounted feature expectations of ``policy`` from each evaluation start -> ``(S, k)``."""
+
+    @abc.abstractmethod
+    def optimal_start_values(self, weights: np.ndarray) -> np.ndarray:
+        """Optimal values ``V*_w(s)`` for a batch ``(N, k)`` of weights -> ``(N, S)``.
+
+        Must never underestimate the optimum (an underestimate makes the bound optimistic).
+        """
+
+    @abc.abstractmethod
+    def random_start_feature_expectations(self) -> np.ndarray:
+        """Feature expectations of the uniform-random policy from each evaluation start -> ``(S, k)``."""
+
+    @abc.abstractmethod
+    def baseline_start_feature_expectations(self) -> np.ndarray:
+        """Feature expectations of the baseline policy used by PIOB -> ``(S, k)``."""
+
+    @abc.abstractmethod
+    def same_policy(self, a: Policy, b: Policy) -> bool:
+        """True when two robot policies count as unchanged (the patience baseline)."""
+
+    @abc.abstractmethod
+    def agrees_with_demo(self, policy: Policy, demo: Demo) -> bool:
+        """True when ``policy`` matches a held-out demo (the validation-set baseline)."""
+
+    @abc.abstractmethod
+    def policy_optimality(self, policy: Policy) -> float:
+        """Ground truth: fraction of decisions of ``policy`` that are optimal under ``w*``."""
+
+    def policy_key(self, policy: Policy) -> bytes:
+        """A hashable identity for caching per-policy results."""
+        return np.ascontiguousarray(policy).tobytes()
+
+    def feature_expectations(self, policy: Policy) -> np.ndarray:
+        """Feature expectations ``μ_π`` under the start distribution -> ``(k,)``."""
+        return self.start_weights @ self.start_feature_expectations(policy)
+
+    def optimal_values(self, weights: np.ndarray) -> np.ndarray:
+        """``V*_w`` under the start distribution for a batch ``(N, k)`` -> ``(N,)``."""
+        return self.optimal_start_values(weights) @ self.start_weights

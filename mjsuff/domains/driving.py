@@ -1,0 +1,67 @@
+"""Driving (paper §4.1): a wrapping road of 3 lanes between 2 off-road borders, with motorists.
+
+The car advances one row per step (the road wraps) and chooses to stay in its column or move one
+column left or right; moving past a border keeps the column. Features (k = 5), one-hot per cell:
+left lane, middle lane, right lane, collision (a motorist's cell), off-road (a border cell). True
+weights follow the paper's code: lane weights in {1..9}, collision in {−20..−11}, off-road in
+{−10..−1}, normalized. The start distribution is uniform over all cells; there is no terminal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from mjsuff.domains.tabular import TabularDomain, TabularMDP
+
+LANE_COLUMNS = (1, 2, 3)
+NUM_COLUMNS = 5
+#: Column change of the three actions: stay, left, right.
+STEERING = (0, -1, 1)
+FEATURE_NAMES = ("left_lane", "middle_lane", "right_lane", "collision", "off_road")
+
+
+class DrivingParams(BaseModel):
+    """Instance parameters of the driving domain."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    rows: int = Field(5, ge=2, le=100, description="road length in rows (the road wraps)")
+    motorists: int = Field(5, ge=0, description="number of other cars, placed in lane cells")
+    gamma: float = Field(0.95, ge=0.0, lt=1.0, description="discount factor")
+
+
+def road_transitions(rows: int) -> np.ndarray:
+    """Deterministic driving moves -> ``P`` of shape ``(S, 3, S)``."""
+    n = rows * NUM_COLUMNS
+    p = np.zeros((n, len(STEERING), n))
+    for s in range(n):
+        r, c = divmod(s, NUM_COLUMNS)
+        for a, dc in enumerate(STEERING):
+            cc = min(max(c + dc, 0), NUM_COLUMNS - 1)
+            p[s, a, ((r + 1) % rows) * NUM_COLUMNS + cc] = 1.0
+    return p
+
+
+def make_driving(params: DrivingParams, rng: np.random.Generator) -> TabularDomain:
+    """A random driving instance: motorist cells and hidden ``w*`` drawn from ``rng``."""
+    n = params.rows * NUM_COLUMNS
+    lanes = [s for s in range(n) if s % NUM_COLUMNS in LANE_COLUMNS]
+    if params.motorists > len(lanes):
+        raise ValueError(f"motorists must be at most {len(lanes)} (lane cells), got "
+                         f"{params.motorists}")
+    cars = rng.choice(lanes, size=params.motorists, replace=False)
+    kind = np.empty(n, dtype=np.int64)
+    for s in range(n):
+        c = s % NUM_COLUMNS
+        kind[s] = 4 if c in (0, NUM_COLUMNS - 1) else c - 1
+    kind[cars] = 3
+    features = np.eye(len(FEATURE_NAMES))[kind]
+    weights = np.array([
+        rng.integers(1, 10), rng.integers(1, 10), rng.integers(1, 10),
+        rng.integers(-20, -10), rng.integers(-10, 0),
+    ], dtype=float)
+    terminal = np.zeros(n, dtype=bool)
+    mdp = TabularMDP(road_transitions(params.rows), features, params.gamma, terminal)
+    baseline = rng.integers(len(STEERING), size=n)
+    return TabularDomain(mdp, weights, np.full(n, 1.0 / n), baseline)

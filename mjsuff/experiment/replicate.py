@@ -1,0 +1,170 @@
+"""One replicate of the experiment loop (paper Alg. 1 and §4.1).
+
+Demonstrations arrive one at a time. After each: the posterior given all demos, π_MAP, nEVD and
+PIOB for every posterior sample and their α-VaR bounds, every stopping rule's verdict, and the
+ground truth (the hidden ``w*``) for the policy each rule would deploy.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from mjsuff.bounds.regret import normalized_evd, percent_improvement, policy_values
+from mjsuff.bounds.var_bound import lower_var_bound, upper_var_bound
+from mjsuff.domain import Demo, Domain, Policy
+from mjsuff.domains import get_domain
+from mjsuff.experiment.scenario import Scenario
+from mjsuff.experiment.selection import active_choice, passive_order
+from mjsuff.posterior.sampler import Posterior, sample_posterior
+from mjsuff.stopping import (
+    Evidence,
+    NevdBoundRule,
+    PatienceRule,
+    PiobBoundRule,
+    StoppingRule,
+    ValidationSetRule,
+)
+
+StepCallback = Callable[[int, int], None]
+"""Called as ``(step, max_demos)`` after each demonstration step."""
+
+
+def build_rules(scenario: Scenario) -> list[StoppingRule]:
+    """Every stopping rule of the scenario, one per rule parameter."""
+    r = scenario.rules
+    return [
+        *(NevdBoundRule(t) for t in r.nevd_thresholds),
+        *(PiobBoundRule(t) for t in r.piob_thresholds),
+        *(PatienceRule(p) for p in r.patience),
+        *(ValidationSetRule(i) for i in r.validation_intervals),
+    ]
+
+
+def make_instance(scenario: Scenario, replicate: int) -> Domain:
+    """The domain instance of ``replicate`` (its own seed stream)."""
+    rng = np.random.default_rng(_seed(scenario, replicate, "instance"))
+    return get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
+
+
+_STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3}
+
+
+def _seed(scenario: Scenario, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
+    return np.random.SeedSequence(scenario.seed, spawn_key=(replicate, _STREAMS[stream], *key))
+
+
+class _Truth:
+    """Ground truth under ``w*`` for any policy, cached per policy."""
+
+    def __init__(self, domain: Domain) -> None:
+        self.domain = domain
+        w = domain.true_weights[None]
+        sw = domain.start_weights
+        self.v_opt = float(domain.optimal_values(w)[0])
+        self.v_rand = float(policy_values(w, domain.random_start_feature_expectations(), sw)[0])
+        self.v_base = float(policy_values(w, domain.baseline_start_feature_expectations(), sw)[0])
+        self._cache: dict[bytes, tuple[float, float, float]] = {}
+
+    def __call__(self, policy: Policy) -> tuple[float, float, float]:
+        """(true nEVD, true PIOB, policy optimality) of ``policy``."""
+        key = self.domain.policy_key(policy)
+        if key not in self._cache:
+            w = self.domain.true_weights[None]
+            mu = self.domain.start_feature_expectations(policy)
+            v = policy_values(w, mu, self.domain.start_weights)
+            nevd = float(normalized_evd(np.array([self.v_opt]), v, np.array([self.v_rand]))[0])
+            piob = float(percent_improvement(v, np.array([self.v_base]))[0])
+            self._cache[key] = (nevd, piob, self.domain.policy_optimality(policy))
+        return self._cache[key]
+
+
+def run_replicate(scenario: Scenario, replicate: int,
+                  on_step: StepCallback | None = None) -> list[dict[str, Any]]:
+    """Run one replicate; returns one row per rule and demo step (see README, steps.parquet)."""
+    domain = make_instance(scenario, replicate)
+    rules = build_rules(scenario)
+    for rule in rules:
+        rule.reset()
+    cfg, suff = scenario.demos, scenario.sufficiency
+    pool_size = domain.pool.size
+    max_demos = min(cfg.max_demos or pool_size, pool_size)
+    demo_rng = np.random.default_rng(_seed(scenario, replicate, "demos"))
+    order = passive_order(pool_size, np.random.default_rng(_seed(scenario, replicate, "selection")))
+    truth = _Truth(domain)
+    sw = domain.start_weights
+    mu_rand = domain.random_start_feature_expectations()
+    mu_base = domain.baseline_start_feature_expectations()
+
+    demos: list[Demo] = []
+    posteriors: dict[frozenset[int], tuple[Posterior, Policy]] = {}
+
+    def posterior_excluding(excluded: frozenset[int]) -> tuple[Posterior, Policy]:
+        n = len(demos)
+        key = frozenset(excluded)
+        if key not in posteriors:
+            used = [d for j, d in enumerate(demos) if j not in key]
+            rng = np.random.default_rng(_seed(scenario, replicate, "mcmc", n, *sorted(key)))
+            post = sample_posterior(
+                lambda w: domain.log_likelihood(w, used, cfg.beta),
+                domain.num_features, scenario.posterior, rng)
+            posteriors[key] = (post, domain.plan(post.map_weights))
+        return posteriors[key]
+
+    rows: list[dict[str, Any]] = []
+    asked: set[int] = set()
+    next_start = int(order[0])
+    for step in range(1, max_demos + 1):
+        posteriors.clear()
+        start = next_start
+        asked.add(start)
+        poor = bool(demo_rng.random() < cfg.noise_fraction)
+        demos.append(domain.demonstrate(start, demo_rng, poor=poor))
+
+        post, map_policy = posterior_excluding(frozenset())
+        w = post.samples
+        mu_robot = domain.start_feature_expectations(map_policy)
+        v_opt_starts = domain.optimal_start_values(w)
+        v_opt = v_opt_starts @ sw
+        v_robot = policy_values(w, mu_robot, sw)
+        nevd = normalized_evd(v_opt, v_robot, policy_values(w, mu_rand, sw))
+        piob = percent_improvement(v_robot, policy_values(w, mu_base, sw))
+        nevd_bound = upper_var_bound(nevd, suff.alpha, suff.delta, suff.quantile_method)
+        piob_finite = piob[np.isfinite(piob)]
+        piob_bound = (lower_var_bound(piob_finite, suff.alpha, suff.delta, suff.quantile_method)
+                      if piob_finite.size else -math.inf)
+        evidence = Evidence(domain, list(demos), map_policy, nevd_bound, piob_bound,
+                            lambda ex: posterior_excluding(ex)[1])
+        for rule in rules:
+            decision = rule.decide(evidence)
+            true_nevd, true_piob, optimality = truth(decision.policy)
+            rows.append({
+                "replicate": replicate,
+                "rule": rule.kind,
+                "param": float(rule.param),
+                "step": step,
+                "start": start,
+                "poor_demo": poor,
+                "bound": float(decision.bound),
+                "true_value": true_piob if rule.measures_improvement else true_nevd,
+                "true_nevd": true_nevd,
+                "true_piob": true_piob,
+                "decision": bool(decision.sufficient),
+                "policy_optimality": optimality,
+                "map_log_likelihood": post.map_log_likelihood,
+                "acceptance_rate": post.acceptance_rate,
+                "rhat": post.rhat,
+            })
+        if on_step is not None:
+            on_step(step, max_demos)
+        if step < max_demos:
+            if cfg.selection == "active":
+                pool_evd = v_opt_starts[:, domain.pool] - w @ mu_robot[domain.pool].T
+                next_start = active_choice(pool_evd, asked, suff.alpha, suff.delta,
+                                           suff.quantile_method)
+            else:
+                next_start = int(order[step])
+    return rows

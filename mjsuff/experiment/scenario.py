@@ -1,0 +1,148 @@
+"""Scenario files: TOML, validated on load into a fully resolved, typed configuration.
+
+Every error names the file, the dotted key and what was expected, in one line (``ScenarioError``).
+Overrides (``--set KEY=VALUE``) are applied before validation; VALUE is read as a TOML value
+(``0.9``, ``[0.1, 0.2]``, ``"active"``) and falls back to a plain string.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from mjsuff.bounds.var_bound import QuantileMethod
+from mjsuff.domains import REGISTRY, get_domain
+from mjsuff.posterior.sampler import SamplerConfig
+
+
+class ScenarioError(ValueError):
+    """A scenario file or override that cannot be used; the message is one line for the user."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class DomainSettings(_Strict):
+    name: str = Field(description=f"registered domain: one of {sorted(REGISTRY)}")
+    params: dict[str, Any] = Field(default_factory=dict, description="domain parameters")
+
+
+class DemoSettings(_Strict):
+    max_demos: int | None = Field(None, ge=1, description="demos per replicate (default: pool)")
+    selection: Literal["passive", "active"] = "passive"
+    noise_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of poor demos")
+    beta: float = Field(10.0, gt=0.0, description="Boltzmann rationality of the likelihood")
+
+
+class SufficiencySettings(_Strict):
+    alpha: float = Field(0.95, gt=0.0, lt=1.0, description="VaR quantile level")
+    delta: float = Field(0.05, gt=0.0, lt=1.0, description="1 - confidence of the bound")
+    quantile_method: QuantileMethod = "normal"
+
+
+Threshold = Annotated[float, Field(gt=0.0, le=1.0)]
+Improvement = Annotated[float, Field(gt=0.0)]
+Patience = Annotated[int, Field(ge=1)]
+Interval = Annotated[int, Field(ge=2)]
+
+
+class RuleSettings(_Strict):
+    nevd_thresholds: list[Threshold] = [0.1, 0.2, 0.3, 0.4, 0.5]
+    piob_thresholds: list[Improvement] = [0.2, 0.4, 0.6]
+    patience: list[Patience] = [1, 2, 3, 4, 5]
+    validation_intervals: list[Interval] = [3, 4, 5, 6, 7]
+
+
+class Scenario(_Strict):
+    """A fully resolved experiment: what to run, how many times, and with which settings."""
+
+    name: str = Field(min_length=1)
+    seed: int = Field(0, ge=0)
+    replicates: int = Field(20, ge=1)
+    domain: DomainSettings
+    demos: DemoSettings = DemoSettings()
+    posterior: SamplerConfig = SamplerConfig()
+    sufficiency: SufficiencySettings = SufficiencySettings()
+    rules: RuleSettings = RuleSettings()
+
+    def domain_params(self) -> BaseModel:
+        return get_domain(self.domain.name).params.model_validate(self.domain.params)
+
+    def to_toml(self) -> str:
+        """The resolved scenario (domain defaults filled in) as TOML, enough to rerun it."""
+        data = self.model_dump(mode="json", exclude_none=True)
+        data["domain"]["params"] = self.domain_params().model_dump(mode="json")
+        return tomli_w.dumps(data)
+
+
+def _describe(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
+    loc = ".".join(str(p) for p in (*prefix, *error["loc"])) or "(top level)"
+    if error["type"] == "extra_forbidden":
+        return f"{loc}: unknown key"
+    if error["type"] == "missing":
+        return f"{loc}: missing required key"
+    return f"{loc}: {error['msg'].lower()} (got {error['input']!r})"
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``"a.b=VALUE"`` -> (["a", "b"], parsed VALUE)."""
+    key, sep, raw = text.partition("=")
+    if not sep or not key.strip():
+        raise ScenarioError(f"--set {text!r}: expected KEY=VALUE, e.g. posterior.num_samples=200")
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key.strip().split("."), value
+
+
+def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
+    for text in overrides:
+        keys, value = parse_override(text)
+        node = data
+        for k in keys[:-1]:
+            child = node.setdefault(k, {})
+            if not isinstance(child, dict):
+                raise ScenarioError(f"--set {text!r}: {k} is not a table")
+            node = child
+        node[keys[-1]] = value
+    return data
+
+
+def scenario_from_dict(data: dict[str, Any], source: str) -> Scenario:
+    """Validate raw scenario data; ``source`` names where it came from in errors."""
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(f"{source}: {_describe(exc.errors()[0])}") from None
+    if scenario.domain.name not in REGISTRY:
+        raise ScenarioError(f"{source}: domain.name: expected one of {sorted(REGISTRY)} "
+                            f"(got {scenario.domain.name!r})")
+    try:
+        scenario.domain_params()
+    except ValidationError as exc:
+        raise ScenarioError(
+            f"{source}: {_describe(exc.errors()[0], ('domain', 'params'))}") from None
+    return scenario
+
+
+def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scenario:
+    """Read, override and validate a scenario file."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: file not found") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{path}: is a directory, expected a TOML scenario file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{path}: not a text file") from None
+    data = apply_overrides(data, overrides or [])
+    return scenario_from_dict(data, str(path))
