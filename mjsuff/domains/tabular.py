@@ -19,6 +19,10 @@ from mjsuff.domain import Demo, Domain
 _OPTIMALITY_TOL = 1e-9
 #: How many previous calls' solutions are tried first for the same rows (MCMC chains).
 _HINT_DEPTH = 4
+#: How many cached policies with the nearest representative weights are tried next.
+_NEAREST = 8
+#: Solved weight vectors remembered for the nearest-policy guess.
+_MAX_REPRESENTATIVES = 4096
 
 
 @dataclass(frozen=True)
@@ -103,55 +107,90 @@ class OptimalPolicyCache:
         self.mdp = mdp
         s, a, k = mdp.num_states, mdp.num_actions, mdp.num_features
         self._keys: dict[bytes, int] = {}
-        self._policies: list[np.ndarray] = []
         self._successors: list[np.ndarray] = []
-        self._q_features: list[np.ndarray] = []  # each (S*A, k)
-        self._g_stack = np.empty((0, s * a, k))
-        self._pi_stack = np.empty((0, s), dtype=np.int64)
-        self._hits = np.zeros(0, dtype=np.int64)
+        self._size = 0
+        # Growable stacks (capacity doubles): Q-features and policies of the cached policies.
+        self._g_stack = np.empty((16, s * a, k))
+        self._pi_stack = np.empty((16, s), dtype=np.int64)
+        # Solved weight vectors and the cached policy each was solved by (nearest-policy guesses).
+        self._rep_w = np.empty((0, k))
+        self._rep_policy = np.empty(0, dtype=np.int64)
         self._recent: list[np.ndarray] = []
 
     def __len__(self) -> int:
-        return len(self._policies)
+        return self._size
 
-    def _add(self, policy: np.ndarray) -> int:
-        key = policy.astype(np.int8).tobytes()
-        if key in self._keys:
-            return self._keys[key]
-        successor = self.mdp.successor_features(policy)
-        g = self.mdp.q_features(successor)
-        self._keys[key] = len(self._policies)
-        self._policies.append(policy.astype(np.int64))
-        self._successors.append(successor)
-        self._q_features.append(g.reshape(-1, self.mdp.num_features))
-        self._hits = np.append(self._hits, 0)
-        return len(self._policies) - 1
+    def _add(self, policies: np.ndarray, weights: np.ndarray, successors: np.ndarray
+             ) -> np.ndarray:
+        """Cache ``policies`` ``(r, S)`` (each optimal for its row of ``weights``, with successor
+        features ``successors`` ``(r, S, k)``) -> their cache indices."""
+        keys = [p.astype(np.int8).tobytes() for p in policies]
+        fresh: dict[bytes, int] = {}
+        for row, key in enumerate(keys):
+            if key not in self._keys and key not in fresh:
+                fresh[key] = row
+        if fresh:
+            rows = np.fromiter(fresh.values(), dtype=np.int64)
+            need = self._size + rows.size
+            while need > self._g_stack.shape[0]:
+                self._g_stack = np.concatenate([self._g_stack, np.empty_like(self._g_stack)])
+                self._pi_stack = np.concatenate([self._pi_stack, np.empty_like(self._pi_stack)])
+            mdp = self.mdp
+            new_successors = successors[rows]
+            g = mdp.features[None, :, None, :] + mdp.gamma * np.einsum(
+                "sat,mtk->msak", mdp.transitions, new_successors)
+            span = slice(self._size, need)
+            self._g_stack[span] = g.reshape(rows.size, -1, mdp.num_features)
+            self._pi_stack[span] = policies[rows]
+            self._successors.extend(new_successors)
+            for offset, key in enumerate(fresh):
+                self._keys[key] = self._size + offset
+            self._size = need
+        index = np.array([self._keys[key] for key in keys], dtype=np.int64)
+        room = _MAX_REPRESENTATIVES - self._rep_w.shape[0]
+        if room > 0:
+            self._rep_w = np.concatenate([self._rep_w, weights[:room]])
+            self._rep_policy = np.concatenate([self._rep_policy, index[:room]])
+        return index
 
-    def _stack(self) -> None:
-        if self._g_stack.shape[0] != len(self._policies):
-            self._g_stack = np.stack(self._q_features)
-            self._pi_stack = np.stack(self._policies)
+    def _policy_iteration(self, weights: np.ndarray, policies: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Exact policy iteration for each row of ``weights`` ``(r, k)``, batched.
 
-    def _policy_iteration(self, w: np.ndarray, policy: np.ndarray) -> np.ndarray:
-        """Exact policy iteration from ``policy`` for one reward vector ``w``."""
-        s_idx = np.arange(self.mdp.num_states)
+        Starts from ``policies`` ``(r, S)``; returns optimal policies ``(r, S)``, ``Q*``
+        ``(r, S, A)`` and the policies' successor features ``(r, S, k)``. An action replaces the
+        current one only if it improves by more than the tolerance, so ties never cycle.
+        """
+        mdp = self.mdp
+        s_idx = np.arange(mdp.num_states)
+        eye = np.eye(mdp.num_states)
+        features = np.broadcast_to(mdp.features, (weights.shape[0], *mdp.features.shape))
+        rewards = weights @ mdp.features.T  # (r, S)
+        policies = policies.copy()
+        rows = np.arange(weights.shape[0])[:, None]
         for _ in range(1000):
-            q = self.mdp.q_features(self.mdp.successor_features(policy)) @ w  # (S, A)
-            current = q[s_idx, policy]
-            best = q.argmax(axis=1)
-            improve = q[s_idx, best] > current + _OPTIMALITY_TOL * (1.0 + np.abs(current))
+            p_pi = mdp.transitions[s_idx, policies]  # (r, S, S)
+            successors = np.linalg.solve(eye - mdp.gamma * p_pi, features)  # (r, S, k)
+            values = np.einsum("rsk,rk->rs", successors, weights)
+            q = rewards[:, :, None] + mdp.gamma * np.einsum("sat,rt->rsa", mdp.transitions, values)
+            current = q[rows, s_idx, policies]
+            best = q.argmax(axis=2)
+            improve = q[rows, s_idx, best] > current + _OPTIMALITY_TOL * (1.0 + np.abs(current))
             if not improve.any():
-                return policy
-            policy = np.where(improve, best, policy)
+                return policies, q, successors
+            policies = np.where(improve, best, policies)
         raise RuntimeError("policy iteration did not converge")
 
     def _resolve(self, pending: np.ndarray, candidates: np.ndarray, weights: np.ndarray,
                  q_out: np.ndarray, which: np.ndarray) -> np.ndarray:
         """Try ``candidates`` (``(len(pending), B)`` cached indices); returns what stays pending."""
         s, a = self.mdp.num_states, self.mdp.num_actions
-        w = weights[pending]
-        q = np.einsum("nbxk,nk->nbx", self._g_stack[candidates], w)
-        q = q.reshape(*candidates.shape, s, a)  # (n, B, S, A)
+        unique, slot = np.unique(candidates, return_inverse=True)
+        slot = slot.reshape(candidates.shape)
+        # One matrix product for every distinct candidate, then each row picks its own.
+        q_all = (weights[pending] @ self._g_stack[unique].reshape(-1, self.mdp.num_features).T)
+        q_all = q_all.reshape(pending.size, unique.size, s, a)
+        q = q_all[np.arange(pending.size)[:, None], slot]  # (n, B, S, A)
         on_policy = np.take_along_axis(q, self._pi_stack[candidates][..., None], axis=3)[..., 0]
         limit = on_policy + _OPTIMALITY_TOL * (1.0 + np.abs(on_policy))  # (n, B, S)
         ok = (q <= limit[..., None]).reshape(*candidates.shape, -1).all(axis=2)  # (n, B)
@@ -161,46 +200,50 @@ class OptimalPolicyCache:
         rows = np.flatnonzero(found)
         first = ok[rows].argmax(axis=1)
         q_out[pending[rows]] = q[rows, first]
-        m = candidates[rows, first]
-        which[pending[rows]] = m
-        np.add.at(self._hits, m, 1)
+        which[pending[rows]] = candidates[rows, first]
         return pending[~found]
 
     def solve(self, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Optimal Q-values ``(N, S, A)`` and the index of an optimal cached policy per weight.
 
         Each weight is first tried against the policies that solved the same row in the last few
-        calls of the same size (MCMC proposals stay near their chain), then against the cache by popularity; the
-        rest are solved (batched value iteration, then exact policy iteration) and cached.
+        calls of the same size (MCMC proposals stay near their chain) and those found for the
+        nearest solved weights; the rest are solved exactly by batched policy iteration,
+        warm-started from the nearest cached policy, and cached.
         """
-        weights = np.atleast_2d(weights)
+        weights = np.atleast_2d(np.asarray(weights, dtype=float))
         n = weights.shape[0]
         s, a = self.mdp.num_states, self.mdp.num_actions
         q_out = np.empty((n, s, a))
         which = np.full(n, -1, dtype=np.int64)
         pending = np.arange(n)
-        recent = [h for h in self._recent if h.shape[0] == n]
-        hint = np.stack(recent, axis=1) if recent else None
-        for _ in range(3):
-            self._stack()
-            if len(self._policies):
-                if hint is not None:
-                    pending = self._resolve(pending, hint[pending], weights, q_out, which)
-                order = np.argsort(-self._hits, kind="stable")
-                for lo in range(0, order.size, 32):
-                    if pending.size == 0:
-                        break
-                    block = order[lo : lo + 32]
-                    candidates = np.broadcast_to(block, (pending.size, block.size))
-                    pending = self._resolve(pending, candidates, weights, q_out, which)
-            if pending.size == 0:
-                self._recent = [which, *self._recent[: _HINT_DEPTH - 1]]
-                return q_out, which
-            q_vi = self.mdp.value_iteration(weights[pending], tol=1e-8)
-            for row, greedy in zip(pending, q_vi.argmax(axis=2), strict=True):
-                self._add(self._policy_iteration(weights[row], greedy))
-            hint = None
-        raise RuntimeError("optimal policy cache failed to resolve all reward vectors")
+        # Without a cached guess, start from the myopic policy (best expected next reward).
+        start = None
+        if self._size:
+            similarity = weights @ self._rep_w.T
+            if similarity.shape[1] > _NEAREST:
+                nearest = np.argpartition(-similarity, _NEAREST - 1, axis=1)[:, :_NEAREST]
+                first = np.take_along_axis(similarity, nearest, axis=1).argmax(axis=1)
+                nearest[:, 0], nearest[np.arange(n), first] = nearest[np.arange(n), first], nearest[:, 0]
+            else:
+                nearest = np.argsort(-similarity, axis=1)
+            near = self._rep_policy[nearest]
+            recent = [h[:, None] for h in self._recent if h.shape[0] == n]
+            guesses = np.concatenate([*recent, near], axis=1)
+            pending = self._resolve(pending, guesses, weights, q_out, which)
+            start = self._pi_stack[near[:, 0]]
+        if pending.size:
+            w = weights[pending]
+            if start is None:
+                first = np.einsum("sat,rt->rsa", self.mdp.transitions, w @ self.mdp.features.T)
+                first = first.argmax(axis=2)
+            else:
+                first = start[pending]
+            policies, q, successors = self._policy_iteration(w, first)
+            q_out[pending] = q
+            which[pending] = self._add(policies, w, successors)
+        self._recent = [which, *self._recent[: _HINT_DEPTH - 1]]
+        return q_out, which
 
     def optimal_values(self, weights: np.ndarray) -> np.ndarray:
         """``V*_w(s)`` for weights ``(N, k)`` -> ``(N, S)``."""

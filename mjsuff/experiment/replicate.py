@@ -99,6 +99,8 @@ def run_replicate(scenario: Scenario, replicate: int,
     mu_rand = domain.random_start_feature_expectations()
     mu_base = domain.baseline_start_feature_expectations()
 
+    map_only = scenario.posterior.model_copy(
+        update={"num_samples": max(10, scenario.posterior.chains)})
     demos: list[Demo] = []
     posteriors: dict[frozenset[int], tuple[Posterior, Policy]] = {}
 
@@ -108,9 +110,11 @@ def run_replicate(scenario: Scenario, replicate: int,
         if key not in posteriors:
             used = [d for j, d in enumerate(demos) if j not in key]
             rng = np.random.default_rng(_seed(scenario, replicate, "mcmc", n, *sorted(key)))
+            # Held-out posteriors only serve their MAP: keep one sample per chain.
+            settings = scenario.posterior if not key else map_only
             post = sample_posterior(
                 lambda w: domain.log_likelihood(w, used, cfg.beta),
-                domain.num_features, scenario.posterior, rng)
+                domain.num_features, settings, rng)
             posteriors[key] = (post, domain.plan(post.map_weights))
         return posteriors[key]
 
@@ -147,6 +151,7 @@ def run_replicate(scenario: Scenario, replicate: int,
                 "param": float(rule.param),
                 "step": step,
                 "start": start,
+                "pool_size": pool_size,
                 "poor_demo": poor,
                 "bound": float(decision.bound),
                 "true_value": true_piob if rule.measures_improvement else true_nevd,

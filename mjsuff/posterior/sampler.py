@@ -30,11 +30,11 @@ class SamplerConfig(BaseModel):
 
     num_samples: int = Field(500, ge=10, description="posterior samples kept over all chains")
     chains: int = Field(20, ge=2, description="independent chains run side by side")
-    burn_in: int = Field(100, ge=0, description="steps per chain discarded (step adapts here)")
+    burn_in: int = Field(75, ge=0, description="steps per chain discarded (step adapts here)")
     thin: int = Field(1, ge=1, description="keep every thin-th step after burn-in")
     step_size: float = Field(0.5, gt=0.0, description="initial proposal standard deviation")
     target_acceptance: float = Field(0.4, gt=0.0, lt=1.0, description="adaptation target")
-    init_candidates: int = Field(20, ge=1, description="uniform draws per chain; it starts at the best")
+    init_candidates: int = Field(4, ge=1, description="uniform draws per chain; it starts at the best")
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,154 @@
+"""The ``mjsuff`` command line: run scenarios, print the paper's reference tables."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from mjsuff import __version__
+from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
+from mjsuff.experiment.results import OutputError
+from mjsuff.experiment.runner import RunResult, run_scenario
+from mjsuff.experiment.scenario import ScenarioError, load_scenario
+
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+err = Console(stderr=True)
+out = Console()
+
+
+def _fmt(x: Any, digits: int = 2) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "–"
+    if isinstance(x, float):
+        return f"{x:.{digits}f}"
+    return str(x)
+
+
+def summary_table(result: RunResult, thresholds: list[float]) -> Table:
+    """Bound rules at their thresholds; baselines scored at the middle nEVD threshold."""
+    eps_mid = sorted(thresholds)[len(thresholds) // 2] if thresholds else math.nan
+    table = Table(title=f"{result.completed} replicate(s); baselines scored at ε = {eps_mid:g}")
+    for col in ("rule", "param", "ε", "F1", "accuracy", "bound err", "demos", "± sem",
+                "states", "TPR", "FPR", "optimality"):
+        table.add_column(col, justify="right" if col != "rule" else "left")
+    for e in result.summary["entries"]:
+        if e["rule"] in ("patience", "validation") and e["epsilon"] != eps_mid:
+            continue
+        table.add_row(
+            e["rule"], f"{e['param']:g}", f"{e['epsilon']:g}", _fmt(e["f1"]),
+            _fmt(e["accuracy"]), _fmt(e["bound_error"], 3), _fmt(e["demos_needed"], 1),
+            _fmt(e["demos_needed_sem"], 1), _fmt(e["fraction_of_states"]), _fmt(e["tpr"]),
+            _fmt(e["fpr"]), _fmt(e["policy_optimality"]),
+        )
+    return table
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    try:
+        overrides = list(args.set or [])
+        if args.seed is not None:
+            overrides.append(f"seed={args.seed}")
+        if args.replicates is not None:
+            overrides.append(f"replicates={args.replicates}")
+        scenario = load_scenario(args.scenario, overrides)
+    except ScenarioError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    directory = Path(args.out) if args.out else Path("runs") / (
+        f"{scenario.name}-{time.strftime('%Y%m%d-%H%M%S')}")
+    progress = Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[detail]}"),
+        TimeElapsedColumn(), TimeRemainingColumn(), console=err, disable=args.quiet,
+    )
+    task = progress.add_task(scenario.name, total=scenario.replicates, detail="")
+    state = {"replicate": 0}
+
+    def on_step(step: int, max_demos: int) -> None:
+        progress.update(task, completed=state["replicate"] + step / max_demos,
+                        detail=f"replicate {state['replicate'] + 1}/{scenario.replicates}, "
+                               f"demo {step}/{max_demos}")
+
+    def on_replicate(replicate: int) -> None:
+        state["replicate"] = replicate + 1
+        progress.update(task, completed=replicate + 1)
+
+    try:
+        with progress:
+            result = run_scenario(scenario, directory, args.overwrite, on_step, on_replicate)
+    except OutputError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        err.print(f"interrupted: finished replicates are saved in {directory} "
+                  "(steps.parquet, summary.json)", highlight=False)
+        return EXIT_INTERRUPTED
+    if not args.quiet:
+        out.print(summary_table(result, scenario.rules.nevd_thresholds))
+    out.print(f"results: {directory}/steps.parquet, summary.json, config.toml", highlight=False)
+    return 0
+
+
+def cmd_hoeffding(args: argparse.Namespace) -> int:
+    table = Table(title=f"Demos for a {1 - args.delta:.0%}-confidence Hoeffding bound "
+                        f"(γ = {args.gamma}, k = {args.k})")
+    for col in ("Threshold", "Abbeel and Ng", "Syed and Schapire"):
+        table.add_column(col, justify="right")
+    for eps in args.thresholds:
+        table.add_row(f"{eps:g}", f"{abbeel_ng_demos(eps, args.gamma, args.k, args.delta):,}",
+                      f"{syed_schapire_demos(eps, args.gamma, args.k, args.delta):,}")
+    out.print(table)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="mjsuff",
+        description="Demonstration sufficiency testbed: Bayesian IRL with high-confidence "
+                    "bounds on the robot's regret, on tabular and MuJoCo domains.",
+    )
+    parser.add_argument("--version", action="version", version=f"mjsuff {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    run = sub.add_parser("run", help="run a scenario: demos one at a time, every stopping rule "
+                                     "decides, ground truth scores it",
+                         description="Run a scenario file and write steps.parquet, "
+                                     "summary.json and config.toml to the output directory.")
+    run.add_argument("scenario", help="scenario TOML file, e.g. scenarios/gridworld.toml")
+    run.add_argument("--out", help="output directory (default: runs/NAME-TIMESTAMP)")
+    run.add_argument("--seed", type=int, help="override the scenario's seed")
+    run.add_argument("--replicates", type=int, help="override the number of replicates")
+    run.add_argument("--set", action="append", metavar="KEY=VALUE",
+                     help="override a scenario key, e.g. --set sufficiency.alpha=0.99 "
+                          "(repeatable)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the results in a non-empty --out directory")
+    run.add_argument("--quiet", action="store_true", help="no progress bar or summary table")
+    run.set_defaults(func=cmd_run)
+
+    hoeff = sub.add_parser("hoeffding", help="print the paper's Table 1 (Hoeffding-based "
+                                             "demo counts)")
+    hoeff.add_argument("--gamma", type=float, default=0.95)
+    hoeff.add_argument("--k", type=int, default=4)
+    hoeff.add_argument("--delta", type=float, default=0.05)
+    hoeff.add_argument("--thresholds", type=float, nargs="+", default=[0.1, 0.2, 0.3, 0.4, 0.5])
+    hoeff.set_defaults(func=cmd_hoeffding)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return int(args.func(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,118 @@
+"""Dependent measures (paper §4.3 and Appendix E) computed from the per-step table.
+
+A rule *stops* at the first step at which it declares sufficiency; a replicate that never stops
+is evaluated at its last step. With ground truth "sufficient" meaning true nEVD ≤ ε (or true
+PIOB ≥ the threshold), each replicate is one decision:
+
+* TP — stopped and truly sufficient; FP — stopped but not; FN — never stopped though the final
+  policy was sufficient; TN — never stopped and never sufficient. F1 = TP / (TP + ½(FP + FN)) (Eq. 10).
+* accuracy — for bound rules, the share of replicates whose bound at the evaluated step is on the
+  right side of the truth (bound ≥ true nEVD; bound ≤ true PIOB); NaN for baselines.
+* bound_error — mean (bound − truth) at the evaluated step.
+* demos_needed — mean evaluated step; fraction_of_states — its mean share of the demo pool
+  (the states a demonstration can be asked from).
+* TPR/FPR — over every (replicate, step) decision, as rates of the per-step confusion matrix.
+* policy_optimality — mean share of optimal actions of the deployed policy at the evaluated step.
+
+Baselines have no threshold of their own: they are scored at every nEVD threshold ε.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+
+def _f1(tp: int, fp: int, fn: int) -> float:
+    den = tp + 0.5 * (fp + fn)
+    return tp / den if den else math.nan
+
+
+def _rate(num: int, den: int) -> float:
+    return num / den if den else math.nan
+
+
+def _sem(x: np.ndarray) -> float:
+    return float(x.std(ddof=1) / math.sqrt(x.size)) if x.size > 1 else math.nan
+
+
+def _truth(frame: pd.DataFrame, improvement: bool, threshold: float) -> np.ndarray:
+    if improvement:
+        return frame["true_piob"].to_numpy() >= threshold
+    return frame["true_nevd"].to_numpy() <= threshold
+
+
+def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> dict[str, Any]:
+    """All measures for one rule and parameter, against the truth threshold ``threshold``."""
+    frame = frame.sort_values(["replicate", "step"])
+    truth = _truth(frame, improvement, threshold)
+    decision = frame["decision"].to_numpy()
+    step_tp = int((decision & truth).sum())
+    step_fp = int((decision & ~truth).sum())
+    step_fn = int((~decision & truth).sum())
+    step_tn = int((~decision & ~truth).sum())
+
+    tp = fp = fn = tn = 0
+    needed, fractions, optimality, accurate, errors, stopped = [], [], [], [], [], []
+    for _, rep in frame.groupby("replicate", sort=True):
+        hits = np.flatnonzero(rep["decision"].to_numpy())
+        row = rep.iloc[hits[0]] if hits.size else rep.iloc[-1]
+        good = bool(_truth(row.to_frame().T, improvement, threshold)[0])
+        if hits.size:
+            tp, fp = tp + good, fp + (not good)
+        else:
+            fn, tn = fn + good, tn + (not good)
+        stopped.append(bool(hits.size))
+        needed.append(int(row["step"]))
+        fractions.append(int(row["step"]) / int(row["pool_size"]))
+        optimality.append(float(row["policy_optimality"]))
+        bound, true = float(row["bound"]), float(row["true_value"])
+        if not math.isnan(bound):
+            accurate.append(bound <= true if improvement else bound >= true)
+            errors.append(bound - true)
+    needed_arr = np.array(needed, dtype=float)
+    return {
+        "replicates": len(needed),
+        "f1": _f1(tp, fp, fn),
+        "accuracy": float(np.mean(accurate)) if accurate else math.nan,
+        "bound_error": float(np.mean(errors)) if errors else math.nan,
+        "demos_needed": float(needed_arr.mean()),
+        "demos_needed_sem": _sem(needed_arr),
+        "fraction_of_states": float(np.mean(fractions)),
+        "stopped_fraction": float(np.mean(stopped)),
+        "tpr": _rate(step_tp, step_tp + step_fn),
+        "fpr": _rate(step_fp, step_fp + step_tn),
+        "policy_optimality": float(np.mean(optimality)),
+        "tp": tp, "fp": fp, "fn": fn, "tn": tn,
+    }
+
+
+def summarize(steps: pd.DataFrame, nevd_thresholds: list[float]) -> dict[str, Any]:
+    """``summary.json`` content: one entry per rule × parameter (× ε for baselines), plus the
+    per-step nEVD bound curve (Figure 2)."""
+    entries: list[dict[str, Any]] = []
+    for (rule, param), group in steps.groupby(["rule", "param"], sort=False):
+        if rule in ("nevd", "piob"):
+            thresholds = [float(param)]
+        else:
+            thresholds = [float(t) for t in nevd_thresholds]
+        for eps in thresholds:
+            entry = {"rule": rule, "param": float(param), "epsilon": eps}
+            entry.update(measure_group(group, rule == "piob", eps))
+            entries.append(entry)
+    curve: list[dict[str, Any]] = []
+    nevd = steps[steps["rule"] == "nevd"]
+    if not nevd.empty:
+        first = nevd[nevd["param"] == nevd["param"].iloc[0]]
+        for step, g in first.groupby("step", sort=True):
+            curve.append({
+                "step": int(step),
+                "replicates": len(g),
+                "mean_bound": float(g["bound"].mean()),
+                "mean_true_nevd": float(g["true_nevd"].mean()),
+                "bound_accuracy": float((g["bound"] >= g["true_nevd"]).mean()),
+            })
+    return {"entries": entries, "nevd_bound_by_step": curve}

@@ -1,0 +1,105 @@
+"""Run directories: every file written atomically, finished replicates kept on interruption.
+
+Layout of ``DIR``:
+
+* ``config.toml`` — the resolved scenario (written first);
+* ``replicates/replicate-NNNNN.parquet`` — the steps of each finished replicate;
+* ``steps.parquet`` — all finished replicates' steps, one row per replicate × rule × param × step;
+* ``summary.json`` — the measures (see ``mjsuff.experiment.measures``), deterministic per seed;
+* ``run.json`` — how the run went: versions, timing, completed and planned replicates.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+
+class OutputError(OSError):
+    """The output directory cannot be used; the message is one line for the user."""
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file and a rename (never half-written)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    atomic_write_bytes(path, text.encode())
+
+
+def atomic_write_parquet(path: Path, frame: pd.DataFrame) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        frame.to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def prepare_output(directory: Path, overwrite: bool) -> None:
+    """Create ``directory`` and prove it writable, before any work starts."""
+    if directory.exists() and not directory.is_dir():
+        raise OutputError(f"{directory}: --out exists and is not a directory")
+    if directory.is_dir() and any(directory.iterdir()) and not overwrite:
+        raise OutputError(f"{directory}: --out is not empty; pass --overwrite to replace it")
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        (directory / "replicates").mkdir(exist_ok=True)
+        probe = directory / ".write-probe"
+        probe.write_text("ok")
+        probe.unlink()
+    except OSError as exc:
+        raise OutputError(f"{directory}: --out is not writable ({exc.strerror or exc})") from None
+    if overwrite:
+        for old in (directory / "replicates").glob("replicate-*.parquet"):
+            old.unlink()
+        for name in ("steps.parquet", "summary.json", "run.json"):
+            (directory / name).unlink(missing_ok=True)
+
+
+def replicate_path(directory: Path, replicate: int) -> Path:
+    return directory / "replicates" / f"replicate-{replicate:05d}.parquet"
+
+
+def write_replicate(directory: Path, replicate: int, rows: list[dict[str, Any]]) -> None:
+    atomic_write_parquet(replicate_path(directory, replicate), pd.DataFrame(rows))
+
+
+def read_steps(directory: Path) -> pd.DataFrame:
+    """All finished replicates' rows, in replicate order."""
+    parts = sorted((directory / "replicates").glob("replicate-*.parquet"))
+    if not parts:
+        return pd.DataFrame()
+    return pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
+
+
+def _finite_or_null(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite_or_null(v) for v in value]
+    return value
+
+
+def write_json(path: Path, data: Any) -> None:
+    """Strict JSON (NaN and infinities become null), written atomically."""
+    text = json.dumps(_finite_or_null(data), indent=2, allow_nan=False)
+    atomic_write_text(path, text + "\n")
