@@ -25,6 +25,16 @@ _NEAREST = 8
 _MAX_REPRESENTATIVES = 4096
 
 
+def greedy_actions(q: np.ndarray) -> np.ndarray:
+    """The lowest-index action within tolerance of the best, per state: ``(..., A)`` -> ``(...)``.
+
+    Plain ``argmax`` would break exact ties by floating-point noise; this breaks them the same way
+    for the expert and the robot.
+    """
+    best = q.max(axis=-1, keepdims=True)
+    return (q >= best - _OPTIMALITY_TOL * (1.0 + np.abs(best))).argmax(axis=-1)
+
+
 @dataclass(frozen=True)
 class TabularMDP:
     """A finite MDP with state rewards ``R_w(s) = w·Φ(s)`` (paper §3.1).
@@ -315,7 +325,7 @@ class TabularDomain(Domain):
 
     def plan(self, w: np.ndarray) -> np.ndarray:
         q, _ = self.cache.solve(np.asarray(w)[None])
-        return q[0].argmax(axis=1)
+        return greedy_actions(q[0])
 
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
         return self.mdp.successor_features(policy)
