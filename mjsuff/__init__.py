@@ -8,6 +8,6 @@ results) → ``cli``.
 
 __version__ = "0.1.0"
 
-from mjsuff.domain import Demo, Domain, Policy  # noqa: E402
+from mjsuff.domain import Demo, Domain, Policy
 
 __all__ = ["Demo", "Domain", "Policy", "__version__"]

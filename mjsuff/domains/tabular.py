@@ -53,7 +53,7 @@ class TabularMDP:
     terminal: np.ndarray
 
     def __post_init__(self) -> None:
-        s, a, s2 = self.transitions.shape
+        s, _, s2 = self.transitions.shape
         if s != s2:
             raise ValueError(f"transitions must have shape (S, A, S), got {self.transitions.shape}")
         if self.features.shape[0] != s:
@@ -234,7 +234,8 @@ class OptimalPolicyCache:
             if similarity.shape[1] > _NEAREST:
                 nearest = np.argpartition(-similarity, _NEAREST - 1, axis=1)[:, :_NEAREST]
                 first = np.take_along_axis(similarity, nearest, axis=1).argmax(axis=1)
-                nearest[:, 0], nearest[np.arange(n), first] = nearest[np.arange(n), first], nearest[:, 0]
+                rows = np.arange(n)
+                nearest[:, 0], nearest[rows, first] = nearest[rows, first], nearest[:, 0]
             else:
                 nearest = np.argsort(-similarity, axis=1)
             near = self._rep_policy[nearest]

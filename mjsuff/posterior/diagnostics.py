@@ -14,12 +14,11 @@ def split_rhat(chains: np.ndarray) -> float:
     Returns:
         ``max_k R̂_k``; values near 1 mean the chains agree. NaN when a coordinate is constant.
     """
-    c, n, k = chains.shape
+    n = chains.shape[1]
     half = n // 2
     if half < 2:
         return float("nan")
     split = np.concatenate([chains[:, :half], chains[:, half : 2 * half]], axis=0)
-    m = split.shape[0]
     means = split.mean(axis=1)  # (m, k)
     within = split.var(axis=1, ddof=1).mean(axis=0)  # (k,)
     between = half * means.var(axis=0, ddof=1)  # (k,)

@@ -34,7 +34,8 @@ class SamplerConfig(BaseModel):
     thin: int = Field(1, ge=1, description="keep every thin-th step after burn-in")
     step_size: float = Field(0.5, gt=0.0, description="initial proposal standard deviation")
     target_acceptance: float = Field(0.4, gt=0.0, lt=1.0, description="adaptation target")
-    init_candidates: int = Field(4, ge=1, description="uniform draws per chain; it starts at the best")
+    init_candidates: int = Field(4, ge=1, description="start candidates per chain; it takes the best")
+    stranded_gap: float = Field(10.0, gt=0.0, description="log-likelihood gap that restarts a chain")
 
 
 @dataclass(frozen=True)
@@ -65,17 +66,34 @@ def sample_posterior(
     num_features: int,
     config: SamplerConfig,
     rng: np.random.Generator,
+    initial: np.ndarray | None = None,
 ) -> Posterior:
-    """Run ``config.chains`` adaptive Metropolis chains on the sphere in ``R^num_features``."""
+    """Run ``config.chains`` adaptive Metropolis chains on the sphere in ``R^num_features``.
+
+    Args:
+        initial: Optional ``(M, k)`` unit vectors to start from (e.g. the previous posterior's
+            samples when one more demo arrives); each chain's start candidates are drawn from
+            them, together with uniform draws.
+
+    At the end of burn-in, a chain whose log-likelihood lies more than ``stranded_gap`` below the
+    best chain's is moved to the state of a randomly chosen well-placed chain: a mode that much
+    lower holds less than ``e^-stranded_gap`` of the mass of the best one, but 1/chains of the
+    samples would otherwise come from it and inflate the upper quantiles the bounds read.
+    """
     c = config.chains
     per_chain = -(-config.num_samples // c)
     steps = config.burn_in + per_chain * config.thin
-    # Start each chain at the best of a few uniform draws: over-dispersed, yet not stranded in
-    # a far tail that burn-in would have to climb out of.
-    pool = random_unit_vectors(rng, c * config.init_candidates, num_features)
-    pool_ll = np.asarray(log_likelihood(pool), dtype=float).reshape(c, config.init_candidates)
+    # Start each chain at the best of a few candidates: over-dispersed, yet not stranded in a
+    # far tail that burn-in would have to climb out of.
+    m = config.init_candidates
+    pool = random_unit_vectors(rng, c * m, num_features)
+    if initial is not None and len(initial):
+        take = rng.integers(len(initial), size=c * m)
+        use = rng.random(c * m) < 0.75
+        pool[use] = normalize(np.asarray(initial, dtype=float)[take[use]])
+    pool_ll = np.asarray(log_likelihood(pool), dtype=float).reshape(c, m)
     pick = pool_ll.argmax(axis=1)
-    w = pool.reshape(c, config.init_candidates, num_features)[np.arange(c), pick]
+    w = pool.reshape(c, m, num_features)[np.arange(c), pick]
     ll = pool_ll[np.arange(c), pick]
     sigma = np.full(c, config.step_size)
     accepted = np.zeros(c)
@@ -98,6 +116,12 @@ def sample_posterior(
             rate = accepted / (t + 1)
             sigma = sigma + sigma / np.sqrt(t + 1) * (rate - config.target_acceptance)
             sigma = np.clip(sigma, 1e-4, 10.0)
+            if t == config.burn_in - 1:
+                stranded = ll < ll.max() - config.stranded_gap
+                if stranded.any():
+                    donors = rng.choice(np.flatnonzero(~stranded), size=int(stranded.sum()))
+                    w[stranded], ll[stranded] = w[donors], ll[donors]
+                    sigma[stranded] = sigma[donors]
         else:
             accepted_after_burn += int(accept.sum())
             j, r = divmod(t - config.burn_in, config.thin)

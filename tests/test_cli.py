@@ -1,0 +1,153 @@
+"""`mjsuff run` end to end: outputs, bad input, unwritable --out, Ctrl-C, determinism."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from mjsuff.cli import main
+from mjsuff.experiment import runner
+from mjsuff.experiment.results import OutputError
+from mjsuff.experiment.runner import run_scenario
+from tests.conftest import small_scenario
+
+SMALL_SETS = ["replicates=2", "demos.max_demos=3", "posterior.num_samples=60",
+              "posterior.chains=6", "posterior.burn_in=20", "rules.patience=[1]",
+              "rules.validation_intervals=[2]"]
+GRIDWORLD = str(Path(__file__).parent.parent / "scenarios" / "gridworld.toml")
+
+
+def run_cli(out, *extra):
+    args = ["run", GRIDWORLD, "--out", str(out), "--quiet"]
+    for s in SMALL_SETS:
+        args += ["--set", s]
+    return main(args + list(extra))
+
+
+def test_run_writes_parseable_outputs(tmp_path):
+    assert run_cli(tmp_path / "r") == 0
+    steps = pd.read_parquet(tmp_path / "r" / "steps.parquet")
+    assert set(steps["replicate"]) == {0, 1} and set(steps["step"]) == {1, 2, 3}
+    for col in ("rule", "param", "step", "bound", "true_value", "decision"):
+        assert col in steps
+    # one row per replicate x rule x param x step
+    assert not steps.duplicated(["replicate", "rule", "param", "step"]).any()
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    rules = {e["rule"] for e in summary["entries"]}
+    assert rules == {"nevd", "piob", "patience", "validation"}
+    for e in summary["entries"]:
+        for key in ("f1", "accuracy", "bound_error", "demos_needed", "fraction_of_states",
+                    "tpr", "fpr", "policy_optimality", "replicates"):
+            assert key in e
+    config = (tmp_path / "r" / "config.toml").read_text()
+    assert "num_samples = 60" in config and "rows = 5" in config
+
+
+def test_same_seed_gives_identical_summary(tmp_path):
+    assert run_cli(tmp_path / "a") == 0
+    assert run_cli(tmp_path / "b") == 0
+    assert (tmp_path / "a" / "summary.json").read_bytes() == \
+        (tmp_path / "b" / "summary.json").read_bytes()
+    assert run_cli(tmp_path / "c", "--seed", "99") == 0
+    assert (tmp_path / "a" / "summary.json").read_bytes() != \
+        (tmp_path / "c" / "summary.json").read_bytes()
+
+
+def test_bad_scenario_exits_2_with_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\n[domain]\nname = "gridworld"\n[rules]\nnevd_thresholds = [2]\n')
+    assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert str(bad) in err and "rules.nevd_thresholds.0" in err and "less than or equal to 1" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_console_script_exit_code_for_missing_file(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "mjsuff.cli", "run", str(tmp_path / "x.toml")],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert "x.toml: file not found" in proc.stderr and "Traceback" not in proc.stderr
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root can write anywhere; see the file test")
+def test_unwritable_out_fails_before_work(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    with pytest.raises(OutputError, match="not writable"):
+        run_scenario(small_scenario(), locked / "run")
+
+
+def test_out_that_is_a_file_or_not_empty_fails_before_work(tmp_path, capsys, monkeypatch):
+    calls = []
+    monkeypatch.setattr(runner, "run_replicate", lambda *a, **k: calls.append(1) or [])
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    assert run_cli(a_file) == 2
+    assert "not a directory" in capsys.readouterr().err
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "keep.txt").write_text("x")
+    assert run_cli(full) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert calls == []
+
+
+@pytest.mark.parametrize("where", ["under-a-file", "proc"])
+def test_unwritable_out_even_for_root(tmp_path, capsys, monkeypatch, where):
+    calls = []
+    monkeypatch.setattr(runner, "run_replicate", lambda *a, **k: calls.append(1) or [])
+    if where == "proc":
+        out = Path("/proc/mjsuff-cannot-write-here/run")
+    else:
+        (tmp_path / "file").write_text("x")
+        out = tmp_path / "file" / "run"
+    assert run_cli(out) == 2
+    err = capsys.readouterr().err
+    assert "not writable" in err and str(out) in err.replace("\n", "")
+    assert calls == []
+
+
+def test_interrupt_keeps_finished_replicates(tmp_path, monkeypatch):
+    real = runner.run_replicate
+
+    def interrupt_second(scenario, replicate, on_step=None):
+        if replicate == 1:
+            raise KeyboardInterrupt
+        return real(scenario, replicate, on_step)
+
+    monkeypatch.setattr(runner, "run_replicate", interrupt_second)
+    with pytest.raises(KeyboardInterrupt):
+        run_scenario(small_scenario(), tmp_path / "r")
+    steps = pd.read_parquet(tmp_path / "r" / "steps.parquet")
+    assert set(steps["replicate"]) == {0}
+    run = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert run["interrupted"] and run["completed_replicates"] == 1
+    assert json.loads((tmp_path / "r" / "summary.json").read_text())["entries"]
+
+
+def test_sigint_mid_run_leaves_readable_results(tmp_path):
+    out = tmp_path / "r"
+    args = [sys.executable, "-m", "mjsuff.cli", "run", GRIDWORLD, "--out", str(out), "--quiet"]
+    for s in [*SMALL_SETS[1:], "replicates=50"]:
+        args += ["--set", s]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = out / "replicates" / "replicate-00000.parquet"
+    deadline = time.monotonic() + 120
+    while not first.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert first.exists()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    steps = pd.read_parquet(out / "steps.parquet")
+    assert 1 <= steps["replicate"].nunique() < 50
+    assert not list(out.glob("**/*.tmp"))
