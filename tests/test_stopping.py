@@ -53,7 +53,7 @@ def test_patience_counts_consecutive_unchanged_policies():
 
 
 def test_validation_set_holds_out_every_ith_demo_and_learns_without_them():
-    rule = ValidationSetRule(3)
+    rule = ValidationSetRule(3, min_held_out=2)
     demos = [Demo(start=i, action=a) for i, a in enumerate([5, 5, 7, 5, 5, 7])]
     seen = []
 
@@ -63,6 +63,7 @@ def test_validation_set_holds_out_every_ith_demo_and_learns_without_them():
 
     assert rule.held_out(6) == frozenset({2, 5})
     assert rule.decide(evidence(demos[:2], excluding=excluding)).sufficient is False  # none held
+    assert rule.decide(evidence(demos[:5], excluding=excluding)).sufficient is False  # one held
     assert rule.decide(evidence(demos, excluding=excluding)).sufficient is True
     assert seen[-1] == frozenset({2, 5})
     assert rule.decide(evidence(demos, excluding=lambda held: 5)).sufficient is False

@@ -40,7 +40,7 @@ def build_rules(scenario: Scenario) -> list[StoppingRule]:
         *(NevdBoundRule(t) for t in r.nevd_thresholds),
         *(PiobBoundRule(t) for t in r.piob_thresholds),
         *(PatienceRule(p) for p in r.patience),
-        *(ValidationSetRule(i) for i in r.validation_intervals),
+        *(ValidationSetRule(i, r.validation_min_held_out) for i in r.validation_intervals),
     ]
 
 

@@ -56,6 +56,7 @@ class RuleSettings(_Strict):
     piob_thresholds: list[Improvement] = [0.2, 0.4, 0.6]
     patience: list[Patience] = [1, 2, 3, 4, 5]
     validation_intervals: list[Interval] = [3, 4, 5, 6, 7]
+    validation_min_held_out: int = Field(3, ge=1, description="held-out demos before it may stop")
 
 
 class Scenario(_Strict):

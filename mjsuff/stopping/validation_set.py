@@ -2,7 +2,8 @@
 
 The robot learns only from the demos it does not hold out, so its π_MAP comes from a posterior
 without them; it stops when that policy agrees with every held-out demo
-(``Domain.agrees_with_demo``) and at least one demo is held out.
+(``Domain.agrees_with_demo``) and at least ``min_held_out`` demos are held out (3 by default, as
+in the paper's published code: one matching demo is weak evidence).
 """
 
 from __future__ import annotations
@@ -20,10 +21,13 @@ class ValidationSetRule(StoppingRule):
     kind = "validation"
 
     @validate_call
-    def __init__(self, interval: int) -> None:
+    def __init__(self, interval: int, min_held_out: int = 3) -> None:
         if interval < 2:
             raise ValueError(f"validation interval must be >= 2, got {interval}")
+        if min_held_out < 1:
+            raise ValueError(f"min_held_out must be >= 1, got {min_held_out}")
         self.param = interval
+        self.min_held_out = min_held_out
 
     def held_out(self, num_demos: int) -> frozenset[int]:
         """Indices of the held-out demos among the first ``num_demos``."""
@@ -32,7 +36,7 @@ class ValidationSetRule(StoppingRule):
     def decide(self, evidence: Evidence) -> Decision:
         held = self.held_out(len(evidence.demos))
         policy = evidence.map_policy_excluding(held)
-        ok = bool(held) and all(
+        ok = len(held) >= self.min_held_out and all(
             evidence.domain.agrees_with_demo(policy, evidence.demos[j]) for j in sorted(held)
         )
         return Decision(ok, math.nan, policy)
