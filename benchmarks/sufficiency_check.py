@@ -17,6 +17,7 @@ import statistics
 import time
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from mjsuff.bounds import normalized_evd, policy_values, upper_var_bound
 from mjsuff.domains import get_domain
@@ -193,4 +194,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    # As in `mjsuff run`: the matrices are small, BLAS threads only add overhead (and stall
+    # badly when another process holds the other core).
+    with threadpool_limits(limits=1):
+        main()
