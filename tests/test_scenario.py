@@ -60,3 +60,31 @@ def test_overrides_are_parsed_as_toml_values(tmp_path):
         load_scenario(path, ["sufficiency.alpha=2"])
     with pytest.raises(ScenarioError, match="expected KEY=VALUE"):
         load_scenario(path, ["alpha"])
+
+
+@pytest.mark.parametrize(("sets", "expected", "attributed"), [
+    (["domain.name='driving'", "domain.params.motorists=100"],
+     "domain.params: motorists must be at most 15", False),
+    (["demos.beta=inf"], "demos.beta: input should be a finite number", True),
+    (["posterior.step_size=nan"], "posterior.step_size: input should be a finite number", True),
+    (["rules.nevd_thresholds=['0.1']"], "rules.nevd_thresholds.0: input should be a valid number",
+     True),
+    (["domain.params.gamma='0.9'"], "domain.params.gamma: input should be a valid number", True),
+    (["rules.nevd_thresholds=[]", "rules.piob_thresholds=[]", "rules.patience=[]",
+      "rules.validation_intervals=[]"], "rules: at least one rule is needed", False),
+    (["rules.nevd_thresholds=[]"], "rules.nevd_thresholds: the baselines are scored", False),
+    (["posterior.num_samples=20"], "posterior.num_samples: at least 59 samples", False),
+    (["posterior.num_samples=60", "posterior.chains=80"], "at least one sample per chain", False),
+    (["domain.params.rows=40"], "domain.params.rows: input should be less than or equal to 12",
+     True),
+])
+def test_bad_overrides_are_clear(tmp_path, sets, expected, attributed):
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path, sets)
+    message = str(info.value)
+    assert message.startswith(str(path)) and expected in message, message
+    # Field errors also name the override they came from (cross-field checks name their key).
+    if attributed:
+        assert f"(--set {sets[0].split('=')[0]})" in message

@@ -10,7 +10,7 @@ weights follow the paper's code: lane weights in {1..9}, collision in {âˆ’20..âˆ
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from mjsuff.domains.tabular import TabularDomain, TabularMDP
 
@@ -24,11 +24,18 @@ FEATURE_NAMES = ("left_lane", "middle_lane", "right_lane", "collision", "off_roa
 class DrivingParams(BaseModel):
     """Instance parameters of the driving domain."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
 
-    rows: int = Field(5, ge=2, le=100, description="road length in rows (the road wraps)")
+    rows: int = Field(5, ge=2, le=40, description="road length in rows (the road wraps)")
     motorists: int = Field(5, ge=0, description="number of other cars, placed in lane cells")
     gamma: float = Field(0.95, ge=0.0, lt=1.0, description="discount factor")
+
+    @model_validator(mode="after")
+    def _motorists_fit(self) -> DrivingParams:
+        lane_cells = len(LANE_COLUMNS) * self.rows
+        if self.motorists > lane_cells:
+            raise ValueError(f"motorists must be at most {lane_cells} (3 lanes x {self.rows} rows)")
+        return self
 
 
 def road_transitions(rows: int) -> np.ndarray:

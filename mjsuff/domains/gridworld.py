@@ -21,10 +21,10 @@ MOVES = ((-1, 0), (1, 0), (0, -1), (0, 1))
 class GridworldParams(BaseModel):
     """Instance parameters of a gridworld."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
 
-    rows: int = Field(5, ge=2, le=50, description="grid rows")
-    cols: int = Field(5, ge=2, le=50, description="grid columns")
+    rows: int = Field(5, ge=2, le=12, description="grid rows (dense solver: at most 144 cells)")
+    cols: int = Field(5, ge=2, le=12, description="grid columns")
     num_features: int = Field(4, ge=2, le=10, description="k: terrain features + 1 goal feature")
     gamma: float = Field(0.95, ge=0.0, lt=1.0, description="discount factor")
 

@@ -192,8 +192,13 @@ class OptimalPolicyCache:
         raise RuntimeError("policy iteration did not converge")
 
     def _resolve(self, pending: np.ndarray, candidates: np.ndarray, weights: np.ndarray,
-                 q_out: np.ndarray, which: np.ndarray) -> np.ndarray:
-        """Try ``candidates`` (``(len(pending), B)`` cached indices); returns what stays pending."""
+                 q_out: np.ndarray, which: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Try ``candidates`` (``(len(pending), B)`` cached indices) for the ``pending`` rows.
+
+        Writes the rows some candidate is optimal for into ``q_out``/``which``; returns the rows
+        still pending and, for each, a policy-iteration start: the greedy improvement of its best
+        candidate (one policy-iteration step, already paid for).
+        """
         s, a = self.mdp.num_states, self.mdp.num_actions
         unique, slot = np.unique(candidates, return_inverse=True)
         slot = slot.reshape(candidates.shape)
@@ -205,13 +210,14 @@ class OptimalPolicyCache:
         limit = on_policy + _OPTIMALITY_TOL * (1.0 + np.abs(on_policy))  # (n, B, S)
         ok = (q <= limit[..., None]).reshape(*candidates.shape, -1).all(axis=2)  # (n, B)
         found = ok.any(axis=1)
-        if not found.any():
-            return pending
         rows = np.flatnonzero(found)
-        first = ok[rows].argmax(axis=1)
-        q_out[pending[rows]] = q[rows, first]
-        which[pending[rows]] = candidates[rows, first]
-        return pending[~found]
+        if rows.size:
+            first = ok[rows].argmax(axis=1)
+            q_out[pending[rows]] = q[rows, first]
+            which[pending[rows]] = candidates[rows, first]
+        rest = np.flatnonzero(~found)
+        best = on_policy[rest].sum(axis=2).argmax(axis=1)
+        return pending[rest], greedy_actions(q[rest, best])
 
     def solve(self, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Optimal Q-values ``(N, S, A)`` and the index of an optimal cached policy per weight.
@@ -227,7 +233,6 @@ class OptimalPolicyCache:
         q_out = np.empty((n, s, a))
         which = np.full(n, -1, dtype=np.int64)
         pending = np.arange(n)
-        # Without a cached guess, start from the myopic policy (best expected next reward).
         start = None
         if self._size:
             similarity = weights @ self._rep_w.T
@@ -235,22 +240,22 @@ class OptimalPolicyCache:
                 nearest = np.argpartition(-similarity, _NEAREST - 1, axis=1)[:, :_NEAREST]
                 first = np.take_along_axis(similarity, nearest, axis=1).argmax(axis=1)
                 rows = np.arange(n)
-                nearest[:, 0], nearest[rows, first] = nearest[rows, first], nearest[:, 0]
+                closest = nearest[rows, first]
+                nearest[rows, first] = nearest[:, 0]
+                nearest[:, 0] = closest
             else:
                 nearest = np.argsort(-similarity, axis=1)
             near = self._rep_policy[nearest]
             recent = [h[:, None] for h in self._recent if h.shape[0] == n]
             guesses = np.concatenate([*recent, near], axis=1)
-            pending = self._resolve(pending, guesses, weights, q_out, which)
-            start = self._pi_stack[near[:, 0]]
+            pending, start = self._resolve(pending, guesses, weights, q_out, which)
         if pending.size:
             w = weights[pending]
             if start is None:
-                first = np.einsum("sat,rt->rsa", self.mdp.transitions, w @ self.mdp.features.T)
-                first = first.argmax(axis=2)
-            else:
-                first = start[pending]
-            policies, q, successors = self._policy_iteration(w, first)
+                # No cached guess yet: start from the myopic policy (best expected next reward).
+                start = greedy_actions(
+                    np.einsum("sat,rt->rsa", self.mdp.transitions, w @ self.mdp.features.T))
+            policies, q, successors = self._policy_iteration(w, start)
             q_out[pending] = q
             which[pending] = self._add(policies, w, successors)
         self._recent = [which, *self._recent[: _HINT_DEPTH - 1]]

@@ -114,17 +114,17 @@ def run_replicate(scenario: Scenario, replicate: int,
             settings = scenario.posterior if not key else map_only
             post = sample_posterior(
                 lambda w: domain.log_likelihood(w, used, cfg.beta),
-                domain.num_features, settings, rng, initial=previous)
+                domain.num_features, settings, rng, initial=previous.get(key))
             posteriors[key] = (post, domain.plan(post.map_weights))
         return posteriors[key]
 
     rows: list[dict[str, Any]] = []
     asked: set[int] = set()
     next_start = int(order[0])
-    previous: np.ndarray | None = None
+    previous: dict[frozenset[int], np.ndarray] = {}
     for step in range(1, max_demos + 1):
-        # Chains start near the posterior of the step before (one demo fewer).
-        previous = posteriors[frozenset()][0].samples if posteriors else None
+        # Chains start near the posterior of the step before given the same held-out set.
+        previous = {key: post.samples for key, (post, _) in posteriors.items()}
         posteriors.clear()
         start = next_start
         asked.add(start)

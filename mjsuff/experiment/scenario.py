@@ -7,12 +7,13 @@ Overrides (``--set KEY=VALUE``) are applied before validation; VALUE is read as 
 
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import tomli_w
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from mjsuff.bounds.var_bound import QuantileMethod
 from mjsuff.domains import REGISTRY, get_domain
@@ -24,7 +25,7 @@ class ScenarioError(ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
 class DomainSettings(_Strict):
@@ -36,7 +37,7 @@ class DemoSettings(_Strict):
     max_demos: int | None = Field(None, ge=1, description="demos per replicate (default: pool)")
     selection: Literal["passive", "active"] = "passive"
     noise_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of poor demos")
-    beta: float = Field(10.0, gt=0.0, description="Boltzmann rationality of the likelihood")
+    beta: float = Field(10.0, gt=0.0, le=1000.0, description="Boltzmann rationality of the likelihood")
 
 
 class SufficiencySettings(_Strict):
@@ -71,6 +72,25 @@ class Scenario(_Strict):
     sufficiency: SufficiencySettings = SufficiencySettings()
     rules: RuleSettings = RuleSettings()
 
+    @model_validator(mode="after")
+    def _consistent(self) -> Scenario:
+        r = self.rules
+        if not (r.nevd_thresholds or r.piob_thresholds or r.patience or r.validation_intervals):
+            raise ValueError("rules: at least one rule is needed")
+        if (r.patience or r.validation_intervals) and not r.nevd_thresholds:
+            raise ValueError("rules.nevd_thresholds: the baselines are scored at the nEVD "
+                             "thresholds, so at least one is needed")
+        a, d = self.sufficiency.alpha, self.sufficiency.delta
+        needed = math.ceil(math.log(d) / math.log(a))
+        if self.posterior.num_samples < needed:
+            raise ValueError(f"posterior.num_samples: at least {needed} samples are needed for a "
+                             f"{1 - d:g}-confidence bound on the {a:g}-VaR "
+                             f"(got {self.posterior.num_samples})")
+        if self.posterior.num_samples < self.posterior.chains:
+            raise ValueError(f"posterior.num_samples: at least one sample per chain is needed "
+                             f"({self.posterior.chains} chains, got {self.posterior.num_samples})")
+        return self
+
     def domain_params(self) -> BaseModel:
         return get_domain(self.domain.name).params.model_validate(self.domain.params)
 
@@ -82,7 +102,11 @@ class Scenario(_Strict):
 
 
 def _describe(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
-    loc = ".".join(str(p) for p in (*prefix, *error["loc"])) or "(top level)"
+    loc = ".".join(str(p) for p in (*prefix, *error["loc"]))
+    if error["type"] == "value_error" and not error["loc"]:
+        message = error["msg"].removeprefix("Value error, ")
+        return f"{'.'.join(map(str, prefix)) + ': ' if prefix else ''}{message}"
+    loc = loc or "(top level)"
     if error["type"] == "extra_forbidden":
         return f"{loc}: unknown key"
     if error["type"] == "missing":
@@ -115,20 +139,34 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
     return data
 
 
-def scenario_from_dict(data: dict[str, Any], source: str) -> Scenario:
-    """Validate raw scenario data; ``source`` names where it came from in errors."""
+def _origin(source: str, error: dict[str, Any], prefix: tuple[Any, ...],
+            overridden: set[str]) -> str:
+    """``source``, or ``source (--set KEY)`` when the offending key came from an override."""
+    dotted = ".".join(str(p) for p in (*prefix, *error["loc"]))
+    for key in sorted(overridden, key=len, reverse=True):
+        if dotted == key or dotted.startswith(key + "."):
+            return f"{source} (--set {key})"
+    return source
+
+
+def scenario_from_dict(data: dict[str, Any], source: str,
+                       overridden: set[str] | None = None) -> Scenario:
+    """Validate raw scenario data; ``source`` (and any ``overridden`` key) is named in errors."""
+    overridden = overridden or set()
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(f"{source}: {_describe(exc.errors()[0])}") from None
+        error = exc.errors()[0]
+        raise ScenarioError(f"{_origin(source, error, (), overridden)}: {_describe(error)}") from None
     if scenario.domain.name not in REGISTRY:
         raise ScenarioError(f"{source}: domain.name: expected one of {sorted(REGISTRY)} "
                             f"(got {scenario.domain.name!r})")
     try:
         scenario.domain_params()
     except ValidationError as exc:
+        error, prefix = exc.errors()[0], ("domain", "params")
         raise ScenarioError(
-            f"{source}: {_describe(exc.errors()[0], ('domain', 'params'))}") from None
+            f"{_origin(source, error, prefix, overridden)}: {_describe(error, prefix)}") from None
     return scenario
 
 
@@ -145,5 +183,8 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
     except UnicodeDecodeError:
         raise ScenarioError(f"{path}: not a text file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     data = apply_overrides(data, overrides or [])
-    return scenario_from_dict(data, str(path))
+    overridden = {".".join(parse_override(o)[0]) for o in overrides or []}
+    return scenario_from_dict(data, str(path), overridden)

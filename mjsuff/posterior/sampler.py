@@ -26,13 +26,13 @@ LogLikelihood = Callable[[np.ndarray], np.ndarray]
 class SamplerConfig(BaseModel):
     """MCMC settings (paper defaults: 500 samples, start step 0.5, 40% target acceptance)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
     num_samples: int = Field(500, ge=10, description="posterior samples kept over all chains")
     chains: int = Field(20, ge=2, description="independent chains run side by side")
     burn_in: int = Field(75, ge=0, description="steps per chain discarded (step adapts here)")
     thin: int = Field(1, ge=1, description="keep every thin-th step after burn-in")
-    step_size: float = Field(0.5, gt=0.0, description="initial proposal standard deviation")
+    step_size: float = Field(0.5, gt=0.0, le=10.0, description="initial proposal standard deviation")
     target_acceptance: float = Field(0.4, gt=0.0, lt=1.0, description="adaptation target")
     init_candidates: int = Field(4, ge=1, description="start candidates per chain; it takes the best")
     stranded_gap: float = Field(10.0, gt=0.0, description="log-likelihood gap that restarts a chain")
@@ -61,6 +61,13 @@ class Posterior:
     rhat: float
 
 
+def _checked(ll: np.ndarray) -> np.ndarray:
+    ll = np.asarray(ll, dtype=float)
+    if np.isnan(ll).any() or np.isposinf(ll).any():
+        raise FloatingPointError("log-likelihood is NaN or +inf (is beta finite and moderate?)")
+    return ll
+
+
 def sample_posterior(
     log_likelihood: LogLikelihood,
     num_features: int,
@@ -76,9 +83,10 @@ def sample_posterior(
             them, together with uniform draws.
 
     At the end of burn-in, a chain whose log-likelihood lies more than ``stranded_gap`` below the
-    best chain's is moved to the state of a randomly chosen well-placed chain: a mode that much
-    lower holds less than ``e^-stranded_gap`` of the mass of the best one, but 1/chains of the
-    samples would otherwise come from it and inflate the upper quantiles the bounds read.
+    best chain's is moved to the state of a randomly chosen well-placed chain. This is a
+    heuristic against chains stuck in a far tail (1/chains of the samples would come from there
+    and inflate the upper quantiles the bounds read); it assumes a state that much less likely is
+    not in a broad mode of comparable total mass. Set ``stranded_gap`` very large to disable it.
     """
     c = config.chains
     per_chain = -(-config.num_samples // c)
@@ -91,7 +99,7 @@ def sample_posterior(
         take = rng.integers(len(initial), size=c * m)
         use = rng.random(c * m) < 0.75
         pool[use] = normalize(np.asarray(initial, dtype=float)[take[use]])
-    pool_ll = np.asarray(log_likelihood(pool), dtype=float).reshape(c, m)
+    pool_ll = _checked(log_likelihood(pool)).reshape(c, m)
     pick = pool_ll.argmax(axis=1)
     w = pool.reshape(c, m, num_features)[np.arange(c), pick]
     ll = pool_ll[np.arange(c), pick]
@@ -104,7 +112,7 @@ def sample_posterior(
     kept_ll = np.empty((c, per_chain))
     for t in range(steps):
         proposal = normalize(w + sigma[:, None] * rng.standard_normal((c, num_features)))
-        ll_prop = np.asarray(log_likelihood(proposal), dtype=float)
+        ll_prop = _checked(log_likelihood(proposal))
         accept = np.log(rng.random(c)) < ll_prop - ll
         w = np.where(accept[:, None], proposal, w)
         ll = np.where(accept, ll_prop, ll)
