@@ -15,6 +15,7 @@ from rich.table import Table
 
 from mjsuff import __version__
 from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
+from mjsuff.domains import get_domain
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import RunResult, run_scenario
 from mjsuff.experiment.scenario import ScenarioError, load_scenario
@@ -82,6 +83,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         state["replicate"] = replicate + 1
         progress.update(task, completed=replicate + 1)
 
+    missing = get_domain(scenario.domain.name).missing
+    if missing:
+        err.print(f"[red]error:[/] {args.scenario}: domain.name: {scenario.domain.name!r} cannot be "
+                  f"run yet: {missing}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
     try:
         with progress:
             result = run_scenario(scenario, directory, args.overwrite, on_step, on_replicate)

@@ -5,12 +5,14 @@ from mjsuff.domains import REGISTRY
 from mjsuff.domains.tabular import OptimalPolicyCache
 from mjsuff.sphere import random_unit_vectors
 
+TABULAR = sorted(n for n, spec in REGISTRY.items() if not spec.missing)
+
 
 def instance(name, seed=0):
     return REGISTRY[name].make(None, np.random.default_rng(seed))
 
 
-@pytest.mark.parametrize("name", sorted(REGISTRY))
+@pytest.mark.parametrize("name", TABULAR)
 def test_cache_matches_value_iteration_for_many_weights(name):
     domain = instance(name)
     weights = random_unit_vectors(np.random.default_rng(1), 300, domain.num_features)
@@ -23,7 +25,7 @@ def test_cache_matches_value_iteration_for_many_weights(name):
     assert len(domain.cache) == size
 
 
-@pytest.mark.parametrize("name", sorted(REGISTRY))
+@pytest.mark.parametrize("name", TABULAR)
 def test_successor_features_give_policy_values(name):
     domain = instance(name, 2)
     mdp = domain.mdp

@@ -12,15 +12,22 @@ from mjsuff.domain import Domain
 from mjsuff.domains.driving import DrivingParams, make_driving
 from mjsuff.domains.gridworld import GridworldParams, make_gridworld
 from mjsuff.domains.tabular import OptimalPolicyCache, TabularDomain, TabularMDP
+from mjsuff.scenes.lander import Lander, LanderParams
+from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
 
 
 @dataclass(frozen=True)
 class DomainSpec:
-    """A registered domain: how to build a random instance and which parameters it takes."""
+    """A registered domain: how to build a random instance and which parameters it takes.
+
+    Attributes:
+        missing: Why ``mjsuff run`` cannot run it yet (empty when it can).
+    """
 
     name: str
     params: type[BaseModel]
     factory: Callable[[BaseModel, np.random.Generator], Domain]
+    missing: str = ""
 
     def make(self, params: BaseModel | dict | None, rng: np.random.Generator) -> Domain:
         """Validate ``params`` (defaults when ``None``) and build an instance from ``rng``."""
@@ -29,9 +36,22 @@ class DomainSpec:
         return self.factory(params, rng)
 
 
+def _scene(scene_type: type) -> Callable[[BaseModel, np.random.Generator], Domain]:
+    def factory(params: BaseModel, rng: np.random.Generator) -> Domain:
+        from mjsuff.scenes.domain import make_scene_domain  # MuJoCo only when asked for
+
+        return make_scene_domain(scene_type, params, rng)
+
+    return factory
+
+
+_NO_DEMOS = "its kinesthetic demonstrations and trajectory likelihood are not built yet (issues #4, #5)"
+
 REGISTRY: dict[str, DomainSpec] = {
     "gridworld": DomainSpec("gridworld", GridworldParams, make_gridworld),
     "driving": DomainSpec("driving", DrivingParams, make_driving),
+    "lava_reacher": DomainSpec("lava_reacher", LavaReacherParams, _scene(LavaReacher), _NO_DEMOS),
+    "lander": DomainSpec("lander", LanderParams, _scene(Lander), _NO_DEMOS),
 }
 
 

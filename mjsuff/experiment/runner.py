@@ -13,6 +13,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mjsuff import __version__
+from mjsuff.domains import get_domain
 from mjsuff.experiment.measures import summarize
 from mjsuff.experiment.replicate import StepCallback, run_replicate
 from mjsuff.experiment.results import (
@@ -23,7 +24,7 @@ from mjsuff.experiment.results import (
     write_json,
     write_replicate,
 )
-from mjsuff.experiment.scenario import Scenario
+from mjsuff.experiment.scenario import Scenario, ScenarioError
 
 
 @dataclass(frozen=True)
@@ -70,9 +71,13 @@ def run_scenario(
     """Run all replicates in order; on Ctrl-C keep and summarize the finished ones, then re-raise.
 
     Raises:
+        ScenarioError: the scenario's domain cannot be run yet (before any work starts).
         OutputError: ``directory`` cannot be used (before any work starts).
         KeyboardInterrupt: after the finished replicates are on disk and summarized.
     """
+    missing = get_domain(scenario.domain.name).missing
+    if missing:
+        raise ScenarioError(f"domain.name: {scenario.domain.name!r} cannot be run yet: {missing}")
     prepare_output(directory, overwrite)
     atomic_write_text(directory / "config.toml", scenario.to_toml())
     started = time.perf_counter()

@@ -1,0 +1,97 @@
+"""Lander (analog of Gym's LunarLander): a planar craft lands on a pad under lunar gravity.
+
+The craft has slide joints x and z and a pitch hinge; controls are the main throttle in [0, 1]
+(up to 40 N along the body axis; the craft weighs 17.8 N on the Moon) and an attitude torque in
+[−1, 1] (up to 3 N m). Its two legs carry touch sensors.
+
+Features (k = 4), from the simulated states and touch sensors:
+
+* ``landing_error`` — at the end of the horizon, horizontal distance to the pad centre plus height
+  above resting on the ground, divided by 5 m; range [0, ~6] (random controls can fly far).
+* ``impact`` — vertical speed at the first step either foot touches the ground, divided by 5 m/s;
+  if the craft has not touched down by the end, the speed it would hit the ground with if the
+  engine were cut then (``√(v_z² + 2 g h)``), so hovering does not dodge it; range [0, ~3].
+* ``fuel`` — mean throttle over the horizon; range [0, 1].
+* ``tilt`` — mean |pitch| (wrapped to [0, π]) divided by π/2; range [0, 2].
+
+Instances randomize the pad position (x in [−4, 4] m) and the start distribution's draws (x in
+[−3, 3] m, height 4–6 m, pitch ±0.2 rad, at rest). True weights are drawn uniformly from the
+all-negative part of the sphere.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from mjsuff.scenes.scene import Scene, load_model
+from mjsuff.scenes.simulate import Rollouts
+from mjsuff.scenes.spline import ControlSpline
+
+FEATURE_NAMES = ("landing_error", "impact", "fuel", "tilt")
+#: Height of the craft's body origin when it stands on its legs (m).
+REST_HEIGHT = 0.53
+TOUCH_THRESHOLD = 1e-6
+
+
+class LanderParams(BaseModel):
+    """Instance parameters of the lander."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+
+    eval_starts: int = Field(16, ge=1, le=256, description="fixed evaluation starts")
+    horizon: float = Field(4.0, gt=0.5, le=20.0, description="trajectory length (s)")
+    knots: int = Field(5, ge=2, le=20, description="control knots per actuator")
+
+
+class Lander(Scene):
+    """One lander instance drawn from ``rng``."""
+
+    feature_names = FEATURE_NAMES
+
+    def __init__(self, params: LanderParams, rng: np.random.Generator,
+                 threads: int | None = None) -> None:
+        self.params = params
+        self.model = load_model("lander.xml")
+        self.pad_x = float(rng.uniform(-4.0, 4.0))
+        self.model.geom("pad").pos[0] = self.pad_x
+        steps = round(params.horizon / self.model.opt.timestep)
+        ctrl = self.model.actuator_ctrlrange
+        self.spline = ControlSpline(params.knots, steps, ctrl[:, 0], ctrl[:, 1])
+        self.starts = self.sample_starts(rng, params.eval_starts)
+        super().__init__(threads)
+
+    def sample_starts(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        return np.stack([rng.uniform(-3.0, 3.0, count), rng.uniform(4.0, 6.0, count),
+                         rng.uniform(-0.2, 0.2, count)], axis=1)
+
+    def path(self, rollouts: Rollouts) -> np.ndarray:
+        return rollouts.qpos[:, :, :2]
+
+    def touchdown(self, rollouts: Rollouts) -> tuple[np.ndarray, np.ndarray]:
+        """Whether each trajectory touches down, and the first step it does (0 if never)."""
+        touching = (rollouts.sensordata[:, :, :2] > TOUCH_THRESHOLD).any(axis=2)
+        return touching.any(axis=1), touching.argmax(axis=1)
+
+    def features(self, rollouts: Rollouts) -> np.ndarray:
+        x_end, z_end = rollouts.qpos[:, -1, 0], rollouts.qpos[:, -1, 1]
+        landing = (np.abs(x_end - self.pad_x) + np.clip(z_end - REST_HEIGHT, 0.0, None)) / 5.0
+        touched, first = self.touchdown(rollouts)
+        # Speed just before contact (the step before the first touching step).
+        before = np.clip(first - 1, 0, None)
+        vz_contact = np.abs(rollouts.qvel[np.arange(len(first)), before, 1])
+        gravity = -self.model.opt.gravity[2]
+        height = np.clip(z_end - REST_HEIGHT, 0.0, None)
+        vz_end = rollouts.qvel[:, -1, 1]
+        vz_cut = np.sqrt(vz_end**2 + 2 * gravity * height)
+        impact = np.where(touched, vz_contact, vz_cut) / 5.0
+        fuel = rollouts.controls[:, :, 0].mean(axis=1)
+        pitch = np.angle(np.exp(1j * rollouts.qpos[:, :, 2]))  # wrapped to [-π, π]
+        tilt = np.abs(pitch).mean(axis=1) / (np.pi / 2)
+        return np.stack([landing, impact, fuel, tilt], axis=1)
+
+    def baseline_knots(self) -> np.ndarray:
+        """A constant 40% throttle, no attitude control: a slow, unguided descent."""
+        knots = np.zeros((len(self.starts), *self.spline.shape))
+        knots[:, :, 0] = 0.4
+        return knots

@@ -1,0 +1,56 @@
+"""Per-start trajectory libraries: every simulated trajectory's features, kept for reuse.
+
+Rollouts are reward-agnostic: once a trajectory's features are known it can be scored under any
+number of reward vectors with one matrix product. The library's best trajectory under ``w`` is a
+lower bound on ``V*_w`` from that start.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class TrajectoryLibrary:
+    """Features ``(n, k)`` and knots ``(n, K, nu)`` of valid trajectories, one growing set per start."""
+
+    def __init__(self, num_starts: int, num_features: int, knot_shape: tuple[int, int]) -> None:
+        self.num_features = num_features
+        self.knot_shape = knot_shape
+        self._features: list[list[np.ndarray]] = [[] for _ in range(num_starts)]
+        self._knots: list[list[np.ndarray]] = [[] for _ in range(num_starts)]
+        self._packed: list[tuple[np.ndarray, np.ndarray] | None] = [None] * num_starts
+
+    def __len__(self) -> int:
+        return sum(self.size(s) for s in range(len(self._features)))
+
+    def size(self, start: int) -> int:
+        return sum(len(f) for f in self._features[start])
+
+    def add(self, start: int, features: np.ndarray, knots: np.ndarray) -> None:
+        """Keep the finite (non-diverged) rows of ``features`` ``(B, k)`` and their knots."""
+        ok = np.isfinite(features).all(axis=1)
+        if ok.any():
+            self._features[start].append(features[ok])
+            self._knots[start].append(knots[ok])
+            self._packed[start] = None
+
+    def arrays(self, start: int) -> tuple[np.ndarray, np.ndarray]:
+        """All features ``(n, k)`` and knots ``(n, K, nu)`` from ``start``."""
+        if self._packed[start] is None:
+            if not self._features[start]:
+                return np.empty((0, self.num_features)), np.empty((0, *self.knot_shape))
+            features = np.concatenate(self._features[start])
+            knots = np.concatenate(self._knots[start])
+            self._features[start], self._knots[start] = [features], [knots]
+            self._packed[start] = (features, knots)
+        return self._packed[start]
+
+    def best(self, start: int, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Best value ``(N,)`` and index ``(N,)`` in the library for weights ``(N, k)``."""
+        features, _ = self.arrays(start)
+        if not len(features):
+            n = len(weights)
+            return np.full(n, -np.inf), np.full(n, -1)
+        values = weights @ features.T
+        index = values.argmax(axis=1)
+        return values[np.arange(len(weights)), index], index

@@ -1,0 +1,94 @@
+"""A MuJoCo scene: an MJCF model, per-instance randomization, start states and trajectory features.
+
+A scene turns simulated trajectories into reward features. Its subclasses keep the physics'
+feature getters (``features``) apart from the task's reward, which is always ``w · φ`` with
+weights chosen elsewhere.
+"""
+
+from __future__ import annotations
+
+import abc
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from mjsuff.scenes.simulate import Rollouts, Simulator
+from mjsuff.scenes.spline import ControlSpline
+
+#: The repository's ``models/`` folder, where the MJCF files live.
+MODELS = Path(__file__).resolve().parents[2] / "models"
+
+
+def load_model(name: str) -> mujoco.MjModel:
+    """Compile ``models/NAME``; a clear error if the file is missing."""
+    path = MODELS / name
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: MJCF model not found (mjsuff expects its models/ "
+                                "folder beside the package; install with pip install -e .)")
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+class Scene(abc.ABC):
+    """One randomized instance of a MuJoCo task.
+
+    Attributes:
+        model: This instance's compiled model (goal, hazards moved into place).
+        spline: The control parameterization shared by planner, random policy and expert.
+        starts: ``(S, nq)`` joint positions of the fixed evaluation starts (at rest).
+        feature_names: The ``k`` feature names, in order.
+    """
+
+    model: mujoco.MjModel
+    spline: ControlSpline
+    starts: np.ndarray
+    feature_names: tuple[str, ...]
+
+    def __init__(self, threads: int | None = None) -> None:
+        self.simulator = Simulator(self.model, threads)
+
+    @property
+    def num_features(self) -> int:
+        return len(self.feature_names)
+
+    def start_states(self, qpos: np.ndarray) -> np.ndarray:
+        """Full-physics states at rest for joint positions ``(B, nq)``."""
+        return self.simulator.full_state(qpos)
+
+    def simulate(self, start_qpos: np.ndarray, knots: np.ndarray) -> tuple[Rollouts, np.ndarray]:
+        """Roll out knots ``(B, K, nu)`` from starts ``(B or 1, nq)``; -> rollouts, features (B, k).
+
+        Features of diverged rollouts are NaN and ``rollouts.valid`` is False for them.
+        """
+        start_qpos = np.atleast_2d(start_qpos)
+        anchor = self.anchor(start_qpos) if self.spline.anchored else None
+        rollouts = self.simulator.run(self.start_states(start_qpos),
+                                      self.spline.controls(knots, anchor))
+        features = self.features(rollouts)
+        features[~rollouts.valid] = np.nan
+        return rollouts, features
+
+    def initial_knots(self, start_qpos: np.ndarray) -> np.ndarray:
+        """Where a planner's search starts without a warm start: mid-range controls."""
+        centre = (self.spline.low + self.spline.high) / 2
+        return np.broadcast_to(centre, (len(start_qpos), *self.spline.shape)).copy()
+
+    def anchor(self, start_qpos: np.ndarray) -> np.ndarray:
+        """The control at t = 0 from starts ``(B, nq)`` (anchored splines only)."""
+        raise NotImplementedError(f"{type(self).__name__} does not anchor its controls")
+
+    @abc.abstractmethod
+    def features(self, rollouts: Rollouts) -> np.ndarray:
+        """Reward features ``(B, k)`` of simulated trajectories (from states and sensors)."""
+
+    @abc.abstractmethod
+    def sample_starts(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        """``count`` start configurations ``(count, nq)`` from the start distribution."""
+
+    @abc.abstractmethod
+    def baseline_knots(self) -> np.ndarray:
+        """Knots ``(S, K, nu)`` of the baseline policy (for PIOB) from each evaluation start."""
+
+    @abc.abstractmethod
+    def path(self, rollouts: Rollouts) -> np.ndarray:
+        """The task-space path ``(B, T, 2)`` a trajectory traces (fingertip or craft, metres)."""

@@ -1,0 +1,118 @@
+"""MuJoCo scenes: models, randomization, features, physics sanity, divergence, behaviour."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjsuff.domains import REGISTRY
+from mjsuff.scenes.lander import REST_HEIGHT, Lander, LanderParams
+from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams, fingertip_xy
+from mjsuff.scenes.planner import CEMPlanner, PlannerConfig
+from mjsuff.scenes.scene import load_model
+
+SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
+          "lander": (Lander, LanderParams)}
+#: Documented feature ranges (see the scene modules' docstrings).
+RANGES = {"lava_reacher": [(0, 2), (0, 1), (0, 10)],
+          "lander": [(0, 6), (0, 3), (0, 1), (0, 2)]}
+
+
+def make(name, seed=0, **params):
+    scene_type, params_type = SCENES[name]
+    return scene_type(params_type(eval_starts=4, **params), np.random.default_rng(seed))
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_registered_with_their_parameters(name):
+    assert REGISTRY[name].params is SCENES[name][1]
+    assert REGISTRY[name].missing  # demos and likelihood come later (issues #4, #5)
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_model_compiles_in_radians(name):
+    model = load_model(f"{name}.xml")
+    hinge = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
+    # Joint ranges are set in radians (degrees would shrink them 57-fold).
+    limited = [j for j in hinge if model.jnt_limited[j]]
+    assert all(model.jnt_range[j, 1] > 2.0 for j in limited)
+    assert model.nu >= 2
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_randomization_is_seeded_and_varies(name):
+    a, b, c = make(name, 1), make(name, 1), make(name, 2)
+    np.testing.assert_array_equal(a.starts, b.starts)
+    np.testing.assert_array_equal(a.model.geom_pos, b.model.geom_pos)
+    assert not np.array_equal(a.model.geom_pos, c.model.geom_pos)
+    assert not np.array_equal(a.starts, c.starts)
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_random_controls_give_finite_features_in_range(name):
+    scene = make(name)
+    knots = scene.spline.uniform(np.random.default_rng(3), 256)
+    rollouts, features = scene.simulate(np.repeat(scene.starts, 64, axis=0), knots)
+    assert rollouts.valid.all() and np.isfinite(features).all()
+    for j, (low, high) in enumerate(RANGES[name]):
+        assert low <= features[:, j].min() and features[:, j].max() <= high, scene.feature_names[j]
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_diverged_rollouts_are_flagged_and_not_scored(name):
+    scene = make(name)
+    knots = scene.spline.uniform(np.random.default_rng(4), 3)
+    controls = scene.spline.controls(knots, scene.anchor(scene.starts[:1]) if scene.spline.anchored
+                                     else None)
+    controls[1, 5:] = np.nan
+    rollouts = scene.simulator.run(scene.start_states(scene.starts[:1]), controls)
+    assert rollouts.valid.tolist() == [True, False, True]
+
+
+def test_lander_falls_without_thrust_and_touch_sensors_fire():
+    scene = make("lander")
+    rollouts, features = scene.simulate(scene.starts[:1], np.zeros((1, *scene.spline.shape)))
+    z = rollouts.qpos[0, :, 1]
+    touched, first = scene.touchdown(rollouts)
+    assert touched[0] and z[first[0]] < REST_HEIGHT + 0.1 < scene.starts[0, 1]
+    assert (np.diff(z[: first[0]]) < 0).all()  # falling until touchdown
+    assert rollouts.sensordata[0, first[0], :2].max() > 0  # the touch sensors read contact
+    assert features[0, 1] > 0.4  # a hard, unbraked impact (> 2 m/s)
+    assert features[0, 2] == 0.0  # no fuel
+
+
+def test_reacher_lava_feature_only_inside_the_lava():
+    scene = make("lava_reacher", 5)
+    rng = np.random.default_rng(0)
+    q = rng.uniform(-2.5, 2.5, size=(20_000, 3))
+    tip = fingertip_xy(q)
+    depth = scene.lava_radius - np.linalg.norm(tip - scene.lava_centre, axis=1)
+    inside, outside = q[depth > 0.5 * scene.lava_radius][:1], q[depth < -0.02][:1]
+    for start, expect_lava in ((inside, True), (outside, False)):
+        hold = np.repeat(start[:, None, :], scene.spline.num_knots, axis=1)  # hold still there
+        _, features = scene.simulate(start, hold)
+        assert (features[0, 1] > 0.3) == expect_lava
+        assert features[0, 2] < 1e-6  # no motion
+
+
+def plan_features(scene, w, seed=0):
+    w = np.asarray(w, dtype=float) / np.linalg.norm(w)
+    starts = np.arange(len(scene.starts))
+    plans = CEMPlanner(scene, PlannerConfig(population=48, iterations=16)).plan(
+        starts, np.tile(w, (len(starts), 1)), np.random.default_rng(seed))
+    return plans.features
+
+
+def test_reacher_detours_around_lava_only_when_it_matters():
+    scene = make("lava_reacher", 0)
+    careful = plan_features(scene, [-0.3, -0.95, -0.05])
+    careless = plan_features(scene, [-0.95, -0.01, -0.05])
+    assert careful[:, 1].mean() < 0.25 * careless[:, 1].mean()  # far less lava exposure
+    assert careful[:, 0].mean() > careless[:, 0].mean()  # paid for with a longer way to the goal
+
+
+def test_lander_saves_fuel_and_lands_harder_when_fuel_is_costly():
+    scene = make("lander", 0)
+    frugal = plan_features(scene, [-0.3, -0.2, -0.9, -0.2])
+    lavish = plan_features(scene, [-0.3, -0.9, -0.02, -0.2])
+    assert frugal[:, 2].mean() < lavish[:, 2].mean()  # less fuel
+    assert frugal[:, 1].mean() > lavish[:, 1].mean()  # harder touchdown
