@@ -34,11 +34,15 @@ class SceneDomain(Domain):
         refine: Budget of one refinement in ``optimal_start_values``.
         max_groups: Most weight groups refined per start and round.
         rounds: Refinement rounds per call (groups are formed anew each round).
+        seed_directions: Reward directions (spread over the all-negative orthant) planned from
+            every start when the instance is built, so the library holds each mode's optimum.
+        seed_planner: Budget of those seed plans.
     """
 
     def __init__(self, scene: Scene, rng: np.random.Generator,
                  planner: PlannerConfig | None = None, refine: PlannerConfig | None = None,
-                 max_groups: int = 16, rounds: int = 2) -> None:
+                 max_groups: int = 16, rounds: int = 2, seed_directions: int = 8,
+                 seed_planner: PlannerConfig | None = None) -> None:
         self.scene = scene
         self.rng = rng
         self.num_features = scene.num_features
@@ -47,7 +51,7 @@ class SceneDomain(Domain):
         self.start_weights = np.full(s, 1.0 / s)
         self.pool = np.arange(s)
         self.library = TrajectoryLibrary(s, scene.num_features, scene.spline.shape)
-        self.planner = CEMPlanner(scene, planner or PlannerConfig(), self.library)
+        self.planner = CEMPlanner(scene, planner or scene.planner_config, self.library)
         self.refiner = CEMPlanner(scene, refine or PlannerConfig(
             population=32, elites=4, iterations=10, initial_std=0.1), self.library)
         self.max_groups = max_groups
@@ -59,6 +63,12 @@ class SceneDomain(Domain):
             self.library.add(i, feats[i], knots.reshape(s, RANDOM_TRAJECTORIES, *scene.spline.shape)[i])
         self._random_mu = np.nanmean(feats, axis=1)
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
+        if seed_directions:
+            seeder = CEMPlanner(scene, seed_planner or PlannerConfig(population=32, elites=4,
+                                                                     iterations=16), self.library)
+            directions = -np.abs(random_unit_vectors(rng, seed_directions, scene.num_features))
+            starts = np.repeat(np.arange(s), seed_directions)
+            seeder.plan(starts, np.tile(directions, (s, 1)), rng)
 
     # -- robot side ---------------------------------------------------------------------------
     def plan(self, w: np.ndarray) -> np.ndarray:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from mjsuff.scenes.planner_config import PlannerConfig
 from mjsuff.scenes.scene import Scene, load_model
 from mjsuff.scenes.simulate import Rollouts
 from mjsuff.scenes.spline import ControlSpline
@@ -48,6 +49,8 @@ class Lander(Scene):
     """One lander instance drawn from ``rng``."""
 
     feature_names = FEATURE_NAMES
+    # Touchdown makes the landscape rough: a wider, larger population finds the better basin.
+    planner_config = PlannerConfig(population=96, elites=8, initial_std=0.5)
 
     def __init__(self, params: LanderParams, rng: np.random.Generator,
                  threads: int | None = None) -> None:

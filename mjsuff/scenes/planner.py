@@ -12,28 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
 from mjsuff.scenes.library import TrajectoryLibrary
+from mjsuff.scenes.planner_config import PlannerConfig
 from mjsuff.scenes.scene import Scene
-
-
-class PlannerConfig(BaseModel):
-    """CEM budget: ``population × iterations`` rollouts per problem."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
-
-    population: int = Field(64, ge=4, description="trajectories sampled per iteration")
-    elites: int = Field(6, ge=1, description="best trajectories the Gaussian is refit to")
-    iterations: int = Field(32, ge=1, description="CEM iterations")
-    initial_std: float = Field(0.35, gt=0.0, description="initial s.d., as a share of the control range")
-    min_std: float = Field(0.01, gt=0.0, description="s.d. floor, as a share of the control range")
-    smoothing: float = Field(0.0, ge=0.0, lt=1.0, description="weight of the old mean/s.d. in a refit")
-
-    def scaled(self, factor: float) -> PlannerConfig:
-        """The same planner with ``factor`` times the population (and elites)."""
-        return self.model_copy(update={"population": int(self.population * factor),
-                                       "elites": int(self.elites * factor)})
 
 
 @dataclass(frozen=True)
@@ -59,6 +41,22 @@ class CEMPlanner:
         """Best trajectories for problems ``(start index, w)``: ``starts`` ``(B,)`` index the
         scene's evaluation starts, ``weights`` is ``(B, k)``, ``warm_knots`` ``(B, K, nu)``."""
         cfg, spline = self.config, self.scene.spline
+        r = cfg.restarts
+        if r > 1:
+            # Independent runs side by side: restart 0 from the warm start / default, the others
+            # from random knots; each problem keeps its best.
+            n = len(starts)
+            first = (self.scene.initial_knots(self.scene.starts[starts])
+                     if warm_knots is None else np.asarray(warm_knots, dtype=float))
+            others = spline.uniform(rng, n * (r - 1)).reshape(r - 1, n, *spline.shape)
+            single = CEMPlanner(self.scene, cfg.model_copy(update={"restarts": 1}), self.library)
+            plans = single.plan(np.tile(starts, r), np.tile(weights, (r, 1)), rng,
+                                np.concatenate([first[None], others]).reshape(r * n, *spline.shape))
+            values = plans.values.reshape(r, n)
+            pick = values.argmax(axis=0)
+            cols = np.arange(n)
+            return Plans(plans.knots.reshape(r, n, *spline.shape)[pick, cols],
+                         plans.features.reshape(r, n, -1)[pick, cols], values[pick, cols])
         b = len(starts)
         span = spline.high - spline.low
         mean = (self.scene.initial_knots(self.scene.starts[starts])

@@ -13,6 +13,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mjsuff.scenes.planner_config import PlannerConfig
 from mjsuff.scenes.simulate import Rollouts, Simulator
 from mjsuff.scenes.spline import ControlSpline
 
@@ -43,6 +44,8 @@ class Scene(abc.ABC):
     spline: ControlSpline
     starts: np.ndarray
     feature_names: tuple[str, ...]
+    #: The planner budget this scene needs (see benchmarks/scenes.py and tests/test_planner.py).
+    planner_config: PlannerConfig = PlannerConfig()
 
     def __init__(self, threads: int | None = None) -> None:
         self.simulator = Simulator(self.model, threads)

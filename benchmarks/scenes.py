@@ -1,0 +1,119 @@
+"""Benchmark the MuJoCo scenes (issue #3): physics throughput, planner throughput, V* for many rewards.
+
+All figures come from one run and are printed side by side:
+
+1. raw ``mujoco.rollout`` steps/s on each scene (uniform-random controls, 1024 trajectories) —
+   the physical limit here;
+2. the planner's simulated steps/s (CEM for every evaluation start, one reward vector), and its
+   ratio to (1);
+3. ``optimal_values`` for R reward vectors x S evaluation starts: trajectory library + refinement
+   vs planning each (reward, start) pair from scratch;
+4. the planner against a reference run with 10x its budget (same warm start), in units of
+   (V* − V_rand).
+
+The library approach's one-time set-up per instance (seed plans) is printed apart. Planning every pair would take hours, so it
+   runs on a random subset of pairs and its time is scaled linearly to all pairs; the value gap
+   is measured on that subset, in units of (V* − V_rand).
+
+    python benchmarks/scenes.py [--rewards 500] [--starts 16] [--subset 24]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from mujoco import rollout
+
+from mjsuff.scenes.domain import SceneDomain
+from mjsuff.scenes.lander import Lander, LanderParams
+from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
+from mjsuff.scenes.planner import CEMPlanner
+from mjsuff.sphere import random_unit_vectors
+
+SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams), "lander": (Lander, LanderParams)}
+
+
+def raw_steps_per_second(scene, trajectories: int = 1024, repeats: int = 3) -> float:
+    rng = np.random.default_rng(0)
+    starts = scene.starts[rng.integers(len(scene.starts), size=trajectories)]
+    anchor = scene.anchor(starts) if scene.spline.anchored else None
+    controls = np.ascontiguousarray(scene.spline.controls(scene.spline.uniform(rng, trajectories),
+                                                          anchor))
+    state = np.ascontiguousarray(scene.start_states(starts))
+    datas = scene.simulator._datas
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        rollout.rollout(scene.model, datas, state, controls)
+        best = min(best, time.perf_counter() - t)
+    return trajectories * scene.spline.num_steps / best
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rewards", type=int, default=500)
+    parser.add_argument("--starts", type=int, default=16)
+    parser.add_argument("--subset", type=int, default=24, help="(reward, start) pairs planned "
+                                                                "from scratch")
+    args = parser.parse_args()
+    for name, (scene_type, params_type) in SCENES.items():
+        scene = scene_type(params_type(eval_starts=args.starts), np.random.default_rng(0))
+        raw = raw_steps_per_second(scene)
+        t = time.perf_counter()
+        domain = SceneDomain(scene, np.random.default_rng(1))
+        build_time = time.perf_counter() - t
+        rng = np.random.default_rng(2)
+        weights = -np.abs(random_unit_vectors(rng, args.rewards, scene.num_features))
+
+        before = scene.simulator.steps_simulated
+        t = time.perf_counter()
+        domain.plan(weights[0])
+        plan_time = time.perf_counter() - t
+        planner_rate = (scene.simulator.steps_simulated - before) / plan_time
+
+        t = time.perf_counter()
+        fast = domain.optimal_start_values(weights)
+        fast_time = time.perf_counter() - t
+
+        pairs = rng.choice(args.rewards * args.starts, size=args.subset, replace=False)
+        w_idx, s_idx = np.divmod(pairs, args.starts)
+        planner = CEMPlanner(scene, domain.planner.config)
+        t = time.perf_counter()
+        full = planner.plan(s_idx, weights[w_idx], np.random.default_rng(3)).values
+        subset_time = time.perf_counter() - t
+        full_time = subset_time * args.rewards * args.starts / args.subset
+
+        v_rand = np.einsum("nk,nk->n", weights[w_idx], domain.random_start_feature_expectations()[s_idx])
+        best = np.maximum(full, fast[w_idx, s_idx])
+        gap = (full - fast[w_idx, s_idx]) / (best - v_rand)
+        print(f"{name}: {scene.spline.num_steps} steps per trajectory, {args.starts} starts")
+        print(f"  raw mujoco.rollout: {raw:,.0f} steps/s")
+        print(f"  instance set-up (random trajectories + seed plans for 8 reward directions into "
+              f"the library): {build_time:.1f} s")
+        print(f"  planner (CEM, budget {domain.planner.config.budget} rollouts per start): "
+              f"{planner_rate:,.0f} steps/s = {planner_rate / raw:.0%} of raw "
+              f"({plan_time:.1f} s for {args.starts} starts)")
+        print(f"  optimal_values {args.rewards} x {args.starts}: library + refinement "
+              f"{fast_time:.1f} s; per-pair planning {full_time:,.0f} s (scaled from "
+              f"{args.subset} pairs in {subset_time:.1f} s) -> {full_time / fast_time:.0f}x faster")
+        print(f"  value gap (per-pair planning − library) / (V* − V_rand) on {args.subset} pairs: "
+              f"mean {gap.mean():.4f}, max {gap.max():.4f}, library better on "
+              f"{(gap < 0).mean():.0%} of pairs")
+        starts = np.arange(args.starts)
+        w = weights[1]
+        warm = np.stack([domain.library.arrays(s)[1][domain.library.best(s, w[None])[1][0]]
+                         for s in starts])
+        value = domain.start_feature_expectations(domain.plan(w)) @ w
+        reference = CEMPlanner(scene, domain.planner.config.scaled(10)).plan(
+            starts, np.tile(w, (args.starts, 1)), np.random.default_rng(5), warm_knots=warm).values
+        v_rand = domain.random_start_feature_expectations() @ w
+        top = np.maximum(reference, value)
+        quality = (top - value) / (top - v_rand)
+        print(f"  planner vs 10x budget, {args.starts} starts: gap mean {quality.mean():.4f}, "
+              f"max {quality.max():.4f}")
+
+
+if __name__ == "__main__":
+    main()
