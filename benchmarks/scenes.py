@@ -7,13 +7,12 @@ All figures come from one run and are printed side by side:
 2. the planner's simulated steps/s (CEM for every evaluation start, one reward vector), and its
    ratio to (1);
 3. ``optimal_values`` for R reward vectors x S evaluation starts: trajectory library + refinement
-   vs planning each (reward, start) pair from scratch;
-4. the planner against a reference run with 10x its budget (same warm start), in units of
-   (V* − V_rand).
+   vs planning each (reward, start) pair from scratch. Planning every pair would take hours, so
+   it runs on a random subset of pairs and its time is scaled linearly to all pairs; the value
+   gap is measured on that subset, in units of (V* − V_rand);
+4. the planner against a reference run with 10x its budget (same warm start), in the same units.
 
-The library approach's one-time set-up per instance (seed plans) is printed apart. Planning every pair would take hours, so it
-   runs on a random subset of pairs and its time is scaled linearly to all pairs; the value gap
-   is measured on that subset, in units of (V* − V_rand).
+The library approach's one-time set-up per instance (seed plans) is printed apart.
 
     python benchmarks/scenes.py [--rewards 500] [--starts 16] [--subset 24]
 """
