@@ -2,7 +2,7 @@
 
 All figures come from one run and are printed side by side:
 
-1. raw ``mujoco.rollout`` steps/s on each scene (uniform-random controls, 1024 trajectories) —
+1. raw ``mujoco.rollout`` steps/s on each scene (uniform-random controls, 2048 trajectories, best of 5) —
    the physical limit here;
 2. the planner's simulated steps/s (CEM for every evaluation start, one reward vector), and its
    ratio to (1);
@@ -34,7 +34,7 @@ from mjsuff.sphere import random_unit_vectors
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams), "lander": (Lander, LanderParams)}
 
 
-def raw_steps_per_second(scene, trajectories: int = 1024, repeats: int = 3) -> float:
+def raw_steps_per_second(scene, trajectories: int = 2048, repeats: int = 5) -> float:
     rng = np.random.default_rng(0)
     starts = scene.starts[rng.integers(len(scene.starts), size=trajectories)]
     anchor = scene.anchor(starts) if scene.spline.anchored else None
