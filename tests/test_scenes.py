@@ -64,8 +64,10 @@ def test_diverged_rollouts_are_flagged_and_not_scored(name):
     controls = scene.spline.controls(knots, scene.anchor(scene.starts[:1]) if scene.spline.anchored
                                      else None)
     controls[1, 5:] = np.nan
+    before = scene.simulator.diverged
     rollouts = scene.simulator.run(scene.start_states(scene.starts[:1]), controls)
     assert rollouts.valid.tolist() == [True, False, True]
+    assert scene.simulator.diverged == before + 1  # counted for the run's report
 
 
 def test_lander_falls_without_thrust_and_touch_sensors_fire():

@@ -52,7 +52,9 @@ class Simulator:
         self.threads = threads or os.cpu_count() or 1
         self._datas = [mujoco.MjData(model) for _ in range(self.threads)]
         self.state_size = mujoco.mj_stateSize(model, FULL_STATE)
+        #: Steps simulated and rollouts flagged as diverged so far (for run reports).
         self.steps_simulated = 0
+        self.diverged = 0
 
     def full_state(self, qpos: np.ndarray, qvel: np.ndarray | None = None) -> np.ndarray:
         """Full-physics states ``(B, nstate)`` at time 0 from joint positions (and velocities)."""
@@ -77,4 +79,6 @@ class Simulator:
         bounded = (np.abs(state[:, :, 1:]) < STATE_LIMIT).all(axis=(1, 2))
         expected_end = initial[:, 0] + t * self.model.opt.timestep
         advanced = np.isclose(state[:, -1, 0], expected_end, atol=0.5 * self.model.opt.timestep)
-        return Rollouts(qpos, qvel, sensordata, controls, finite & bounded & advanced)
+        valid = finite & bounded & advanced
+        self.diverged += int((~valid).sum())
+        return Rollouts(qpos, qvel, sensordata, controls, valid)
