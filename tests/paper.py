@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from mjsuff.experiment.runner import run_scenario
 from mjsuff.experiment.scenario import load_scenario
@@ -61,3 +62,31 @@ def check_table_3(passive: pd.DataFrame, active: pd.DataFrame) -> None:
 
 
 ACTIVE = ("demos.selection=active", "rules.patience=[]", "rules.validation_intervals=[]")
+
+
+def paper_tests(domain: str) -> tuple:
+    """Module-scoped fixtures and tests of Figure 4 and Tables 2-3 for ``domain``.
+
+    A test module binds them to module-level names, so each domain's runs stay in one module
+    (and one xdist worker).
+    """
+
+    @pytest.fixture(scope="module")
+    def passive(tmp_path_factory):
+        return run(tmp_path_factory, domain)[0]
+
+    @pytest.fixture(scope="module")
+    def active(tmp_path_factory):
+        return run(tmp_path_factory, domain, *ACTIVE)[0]
+
+    def test_figure_4_nevd_rule_is_accurate_and_efficient(passive):
+        check_figure_4(passive)
+
+    def test_table_2_piob_rule(passive):
+        check_table_2(passive)
+
+    def test_table_3_active_needs_fewer_states_at_equal_f1(passive, active):
+        check_table_3(passive, active)
+
+    return (passive, active, test_figure_4_nevd_rule_is_accurate_and_efficient,
+            test_table_2_piob_rule, test_table_3_active_needs_fewer_states_at_equal_f1)
