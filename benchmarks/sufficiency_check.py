@@ -51,7 +51,9 @@ def fast_check(domain: TabularDomain, demos: list, seed: int) -> float:
 
 
 # -- naive reference: the paper's code structure, plain Python loops ------------------------------
-def naive_value_iteration(p, rewards, terminal, gamma, eps=1e-4):
+def naive_values(p, rewards, terminal, gamma, policy=None, eps=1e-4):
+    """Iterative Bellman backups in plain loops: optimal values (``policy`` None) or the values
+    of ``policy`` (``policy[s]`` a list of action probabilities)."""
     n, a_n = len(rewards), len(p[0])
     v = [0.0] * n
     while True:
@@ -60,12 +62,13 @@ def naive_value_iteration(p, rewards, terminal, gamma, eps=1e-4):
         for s in range(n):
             if terminal[s]:
                 new_v[s] = rewards[s]
+                continue
+            backups = [sum(p[s][a][t] * v[t] for t in range(n) if p[s][a][t]) for a in range(a_n)]
+            if policy is None:
+                future = max(backups)
             else:
-                best = -math.inf
-                for a in range(a_n):
-                    total = sum(p[s][a][t] * v[t] for t in range(n) if p[s][a][t])
-                    best = max(best, total)
-                new_v[s] = rewards[s] + gamma * best
+                future = sum(policy[s][a] * backups[a] for a in range(a_n) if policy[s][a])
+            new_v[s] = rewards[s] + gamma * future
             delta = max(delta, abs(new_v[s] - v[s]))
         v = new_v
         if delta < eps * (1 - gamma) / gamma:
@@ -76,28 +79,6 @@ def naive_q(p, rewards, terminal, gamma, v):
     n, a_n = len(rewards), len(p[0])
     return [[rewards[s] + (0.0 if terminal[s] else gamma * sum(
         p[s][a][t] * v[t] for t in range(n) if p[s][a][t])) for a in range(a_n)] for s in range(n)]
-
-
-def naive_policy_evaluation(p, rewards, terminal, gamma, policy, eps=1e-4):
-    """``policy[s]`` is a list of action probabilities."""
-    n, a_n = len(rewards), len(p[0])
-    v = [0.0] * n
-    while True:
-        delta = 0.0
-        new_v = [0.0] * n
-        for s in range(n):
-            if terminal[s]:
-                new_v[s] = rewards[s]
-                continue
-            total = 0.0
-            for a in range(a_n):
-                if policy[s][a]:
-                    total += policy[s][a] * sum(p[s][a][t] * v[t] for t in range(n) if p[s][a][t])
-            new_v[s] = rewards[s] + gamma * total
-            delta = max(delta, abs(new_v[s] - v[s]))
-        v = new_v
-        if delta < eps * (1 - gamma) / gamma:
-            return v
 
 
 def naive_check(domain: TabularDomain, demos: list, seed: int) -> float:
@@ -114,7 +95,7 @@ def naive_check(domain: TabularDomain, demos: list, seed: int) -> float:
 
     def log_lik(w):
         r = rewards_of(w)
-        q = naive_q(p, r, terminal, gamma, naive_value_iteration(p, r, terminal, gamma))
+        q = naive_q(p, r, terminal, gamma, naive_values(p, r, terminal, gamma))
         total = 0.0
         for s, a in pairs:
             top = max(q[s])
@@ -141,7 +122,7 @@ def naive_check(domain: TabularDomain, demos: list, seed: int) -> float:
         chain.append(w)
     samples = chain[100::2]
     r_map = rewards_of(best_w.tolist())
-    q_map = naive_q(p, r_map, terminal, gamma, naive_value_iteration(p, r_map, terminal, gamma))
+    q_map = naive_q(p, r_map, terminal, gamma, naive_values(p, r_map, terminal, gamma))
     n_actions = len(p[0])
     robot = [[1.0 if a == int(np.argmax(q_map[s])) else 0.0 for a in range(n_actions)]
              for s in range(len(p))]
@@ -149,9 +130,9 @@ def naive_check(domain: TabularDomain, demos: list, seed: int) -> float:
     nevd = []
     for w_i in samples:
         r = rewards_of(w_i.tolist())
-        v_opt = statistics.fmean(naive_value_iteration(p, r, terminal, gamma))
-        v_rob = statistics.fmean(naive_policy_evaluation(p, r, terminal, gamma, robot))
-        v_rand = statistics.fmean(naive_policy_evaluation(p, r, terminal, gamma, uniform))
+        v_opt = statistics.fmean(naive_values(p, r, terminal, gamma))
+        v_rob = statistics.fmean(naive_values(p, r, terminal, gamma, robot))
+        v_rand = statistics.fmean(naive_values(p, r, terminal, gamma, uniform))
         nevd.append((v_opt - v_rob) / (v_opt - v_rand) if v_opt != v_rand else 0.0)
     return upper_var_bound(np.array(nevd), ALPHA, DELTA)
 

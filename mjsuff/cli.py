@@ -15,9 +15,8 @@ from rich.table import Table
 
 from mjsuff import __version__
 from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
-from mjsuff.domains import get_domain
 from mjsuff.experiment.results import OutputError
-from mjsuff.experiment.runner import RunResult, run_scenario
+from mjsuff.experiment.runner import RunResult, check_runnable, run_scenario
 from mjsuff.experiment.scenario import ScenarioError, load_scenario
 
 EXIT_USAGE = 2
@@ -83,10 +82,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         state["replicate"] = replicate + 1
         progress.update(task, completed=replicate + 1)
 
-    missing = get_domain(scenario.domain.name).missing
-    if missing:
-        err.print(f"[red]error:[/] {args.scenario}: domain.name: {scenario.domain.name!r} cannot be "
-                  f"run yet: {missing}", highlight=False, soft_wrap=True)
+    try:
+        check_runnable(scenario)  # before the progress bar, so the error stays one line
+    except ScenarioError as exc:
+        err.print(f"[red]error:[/] {args.scenario}: {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
     try:
         with progress:

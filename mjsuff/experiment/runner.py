@@ -61,6 +61,13 @@ def finalize(directory: Path, scenario: Scenario, planned: int, started: float,
     return RunResult(directory, completed, planned, interrupted, summary)
 
 
+def check_runnable(scenario: Scenario) -> None:
+    """Raise ``ScenarioError`` if the scenario's domain cannot be run yet."""
+    missing = get_domain(scenario.domain.name).missing
+    if missing:
+        raise ScenarioError(f"domain.name: {scenario.domain.name!r} cannot be run yet: {missing}")
+
+
 def run_scenario(
     scenario: Scenario,
     directory: Path,
@@ -75,9 +82,7 @@ def run_scenario(
         OutputError: ``directory`` cannot be used (before any work starts).
         KeyboardInterrupt: after the finished replicates are on disk and summarized.
     """
-    missing = get_domain(scenario.domain.name).missing
-    if missing:
-        raise ScenarioError(f"domain.name: {scenario.domain.name!r} cannot be run yet: {missing}")
+    check_runnable(scenario)
     prepare_output(directory, overwrite)
     atomic_write_text(directory / "config.toml", scenario.to_toml())
     started = time.perf_counter()
