@@ -1,4 +1,4 @@
-"""The ``mjsuff`` command line: run scenarios, print the paper's reference tables."""
+"""The ``mjsuff`` command line: run scenarios, generate demos, print the paper's reference tables."""
 
 from __future__ import annotations
 
@@ -115,6 +115,66 @@ def cmd_hoeffding(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_demos(args: argparse.Namespace) -> int:
+    from mjsuff.experts.demo_set import truth_path
+    from mjsuff.experts.generate import generate_demos  # MuJoCo and mink only when asked for
+
+    try:
+        overrides = list(args.set or [])
+        if args.seed is not None:
+            overrides.append(f"seed={args.seed}")
+        scenario = load_scenario(args.scenario, overrides)
+    except ScenarioError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    count = args.count or scenario.demos.max_demos or 10
+    path = Path(args.out or f"demos/{scenario.name}-seed{scenario.seed}-r{args.replicate}.npz")
+    if path.suffix != ".npz":
+        err.print(f"[red]error:[/] --out {path}: expected a .npz file name", highlight=False)
+        return EXIT_USAGE
+    if path.exists() and not args.overwrite:
+        err.print(f"[red]error:[/] {path} exists; pass --overwrite to replace it", highlight=False)
+        return EXIT_USAGE
+    progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                        TextColumn("{task.fields[detail]}"), TimeElapsedColumn(),
+                        TimeRemainingColumn(), console=err, disable=args.quiet)
+    task = progress.add_task(f"{scenario.name} demos", total=count, detail="")
+
+    def on_demo(i: int, demo) -> None:
+        progress.update(task, completed=i + 1,
+                        detail=f"{i + 1}/{count}, tracking {demo.tracking_error * 1000:.1f} mm")
+
+    started = time.perf_counter()
+    try:
+        with progress:
+            demo_set = generate_demos(scenario, count, args.replicate, on_demo)
+    except ValueError as exc:
+        err.print(f"[red]error:[/] {args.scenario}: {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    elapsed = time.perf_counter() - started
+    if len(demo_set) == 0:
+        err.print("interrupted before the first demo: nothing written", highlight=False)
+        return EXIT_INTERRUPTED
+    demo_set.save(path)
+    a, meta = demo_set.arrays, demo_set.meta
+    if not args.quiet:
+        table = Table(title=f"{len(demo_set)} demos, {scenario.domain.name}, instance {meta['instance']}")
+        for col in ("#", "start", *meta["feature_names"], "tracking (mm)", "poor"):
+            table.add_column(col, justify="right")
+        for i in range(len(demo_set)):
+            table.add_row(str(i), str(a["start_index"][i]), *(f"{f:.3f}" for f in a["features"][i]),
+                          f"{a['tracking_error'][i] * 1000:.2f}", "yes" if a["poor"][i] else "")
+        out.print(table)
+    out.print(f"{len(demo_set)} demos in {elapsed:.1f} s ({len(demo_set) / elapsed:.2f} demos/s); "
+              f"max tracking error {a['tracking_error'].max() * 1000:.2f} mm; "
+              f"IK failures among candidates {sum(meta['ik_failures'])}", highlight=False)
+    out.print(f"demos: {path} (true weights apart: {truth_path(path)})", highlight=False)
+    if meta["interrupted"]:
+        err.print(f"interrupted: the {len(demo_set)} finished demos are saved", highlight=False)
+        return EXIT_INTERRUPTED
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="mjsuff",
@@ -139,6 +199,22 @@ def build_parser() -> argparse.ArgumentParser:
                      help="replace the results in a non-empty --out directory")
     run.add_argument("--quiet", action="store_true", help="no progress bar or summary table")
     run.set_defaults(func=cmd_run)
+
+    demos = sub.add_parser("demos", help="generate scripted kinesthetic demonstrations (mink IK, "
+                                         "executed in MuJoCo) for a MuJoCo scenario",
+                           description="Generate a demo set (.npz, true weights apart in "
+                                       ".truth.json) for one replicate's scene instance, with "
+                                       "the seed streams mjsuff run uses.")
+    demos.add_argument("scenario", help="scenario TOML file, e.g. scenarios/lava_reacher.toml")
+    demos.add_argument("--count", type=int, help="number of demos (default: demos.max_demos)")
+    demos.add_argument("--out", help="output .npz (default: demos/NAME-seedS-rR.npz)")
+    demos.add_argument("--seed", type=int, help="override the scenario's seed")
+    demos.add_argument("--replicate", type=int, default=0, help="which replicate's instance")
+    demos.add_argument("--set", action="append", metavar="KEY=VALUE",
+                       help="override a scenario key, e.g. --set expert.rationality=20")
+    demos.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    demos.add_argument("--quiet", action="store_true", help="no progress bar or demo table")
+    demos.set_defaults(func=cmd_demos)
 
     hoeff = sub.add_parser("hoeffding", help="print the paper's Table 1 (Hoeffding-based "
                                              "demo counts)")

@@ -46,14 +46,15 @@ def build_rules(scenario: Scenario) -> list[StoppingRule]:
 
 def make_instance(scenario: Scenario, replicate: int) -> Domain:
     """The domain instance of ``replicate`` (its own seed stream)."""
-    rng = np.random.default_rng(_seed(scenario, replicate, "instance"))
+    rng = np.random.default_rng(seed_sequence(scenario, replicate, "instance"))
     return get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
 
 
 _STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3}
 
 
-def _seed(scenario: Scenario, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
+def seed_sequence(scenario: Scenario, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
+    """The seed of one randomness stream (instance, demos, mcmc, selection) of a replicate."""
     return np.random.SeedSequence(scenario.seed, spawn_key=(replicate, _STREAMS[stream], *key))
 
 
@@ -92,8 +93,8 @@ def run_replicate(scenario: Scenario, replicate: int,
     cfg, suff = scenario.demos, scenario.sufficiency
     pool_size = domain.pool.size
     max_demos = min(cfg.max_demos or pool_size, pool_size)
-    demo_rng = np.random.default_rng(_seed(scenario, replicate, "demos"))
-    order = passive_order(pool_size, np.random.default_rng(_seed(scenario, replicate, "selection")))
+    demo_rng = np.random.default_rng(seed_sequence(scenario, replicate, "demos"))
+    order = passive_order(pool_size, np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
     truth = _Truth(domain)
     sw = domain.start_weights
     mu_rand = domain.random_start_feature_expectations()
@@ -109,7 +110,7 @@ def run_replicate(scenario: Scenario, replicate: int,
         key = frozenset(excluded)
         if key not in posteriors:
             used = [d for j, d in enumerate(demos) if j not in key]
-            rng = np.random.default_rng(_seed(scenario, replicate, "mcmc", n, *sorted(key)))
+            rng = np.random.default_rng(seed_sequence(scenario, replicate, "mcmc", n, *sorted(key)))
             # Held-out posteriors only serve their MAP: keep one sample per chain.
             settings = scenario.posterior if not key else map_only
             post = sample_posterior(

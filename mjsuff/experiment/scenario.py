@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from mjsuff.bounds.var_bound import QuantileMethod
 from mjsuff.domains import REGISTRY, get_domain
+from mjsuff.experts.expert import ExpertSettings
 from mjsuff.posterior.sampler import SamplerConfig
 
 
@@ -68,6 +69,7 @@ class Scenario(_Strict):
     replicates: int = Field(20, ge=1)
     domain: DomainSettings
     demos: DemoSettings = DemoSettings()
+    expert: ExpertSettings = ExpertSettings()
     posterior: SamplerConfig = SamplerConfig()
     sufficiency: SufficiencySettings = SufficiencySettings()
     rules: RuleSettings = RuleSettings()

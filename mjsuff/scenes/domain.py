@@ -46,7 +46,7 @@ class SceneDomain(Domain):
         self.scene = scene
         self.rng = rng
         self.num_features = scene.num_features
-        self.true_weights = -np.abs(random_unit_vectors(rng, 1, scene.num_features)[0])
+        self.true_weights = draw_true_weights(rng, scene.num_features)
         s = len(scene.starts)
         self.start_weights = np.full(s, 1.0 / s)
         self.pool = np.arange(s)
@@ -124,6 +124,11 @@ class SceneDomain(Domain):
 
     def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
         raise NotImplementedError("the trajectory-level likelihood arrives with issue #5")
+
+
+def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
+    """Hidden weights ``w*``: uniform on the all-negative part of the unit sphere (every feature a cost)."""
+    return -np.abs(random_unit_vectors(rng, 1, k)[0])
 
 
 def make_scene_domain(scene_type: type[Scene], params: BaseModel,

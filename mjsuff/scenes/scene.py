@@ -71,6 +71,15 @@ class Scene(abc.ABC):
         features[~rollouts.valid] = np.nan
         return rollouts, features
 
+    def simulate_controls(self, start_qpos: np.ndarray,
+                          controls: np.ndarray) -> tuple[Rollouts, np.ndarray]:
+        """Roll out per-step controls ``(B, T, nu)`` (e.g. an expert's) from starts ``(B or 1, nq)``."""
+        rollouts = self.simulator.run(self.start_states(np.atleast_2d(start_qpos)),
+                                      np.asarray(controls, dtype=float))
+        features = self.features(rollouts)
+        features[~rollouts.valid] = np.nan
+        return rollouts, features
+
     def initial_knots(self, start_qpos: np.ndarray) -> np.ndarray:
         """Where a planner's search starts without a warm start: mid-range controls."""
         centre = (self.spline.low + self.spline.high) / 2

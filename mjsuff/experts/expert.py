@@ -1,0 +1,176 @@
+"""Scripted kinesthetic experts: candidate task-space paths, mink IK, execution in MuJoCo, choice.
+
+An expert demonstrates from a start the way a person guiding the robot by hand would: it considers a
+family of task-space paths (its *candidates*), turns each into joint motion with mink, executes it
+in MuJoCo, and judges the executed trajectories by the hidden reward ``w* · φ``. A perfectly rational
+expert shows the best one; a Boltzmann expert with rationality ``β_E`` picks candidate ``c`` with
+probability ∝ ``exp(β_E w*·φ_c)``; a deliberately poor demo is drawn uniformly from the worse half of
+the candidates. The executed rollout (never the plan) is the demonstration.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from mjsuff.scenes.scene import Scene
+from mjsuff.scenes.simulate import Rollouts
+
+
+class ExpertError(RuntimeError):
+    """The expert could not produce a demonstration (e.g. every candidate path failed IK)."""
+
+
+class ExpertSettings(BaseModel):
+    """How an expert demonstrates (the scenario's ``[expert]`` table)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
+
+    rationality: float | None = Field(
+        None, gt=0.0, description="Boltzmann rationality over candidates; none = always the best")
+    refine_rounds: int = Field(2, ge=0, le=10, description="local refinement rounds around the best path")
+    refine_candidates: int = Field(16, ge=1, le=256, description="candidates per refinement round")
+
+
+@dataclass(frozen=True)
+class ExecutedPaths:
+    """Candidate paths as intended and as executed.
+
+    Attributes:
+        params: ``(C, p)`` path parameters.
+        intended: ``(C, T, d)`` the task-space path each candidate meant to follow (m), at the end
+            of every simulated step.
+        executed: ``(C, T, d)`` the path MuJoCo executed, at the same instants.
+        rollouts: The executed trajectories (``None`` when there are none).
+        features: ``(C, k)`` their features (NaN where diverged).
+        tracking_error: ``(C,)`` largest distance between intended and executed path (m).
+    """
+
+    params: np.ndarray
+    intended: np.ndarray
+    executed: np.ndarray
+    rollouts: Rollouts | None
+    features: np.ndarray
+    tracking_error: np.ndarray
+
+    @classmethod
+    def empty(cls) -> ExecutedPaths:
+        """No candidate could be executed."""
+        return cls(np.empty((0, 0)), np.empty((0, 0, 0)), np.empty((0, 0, 0)), None,
+                   np.empty((0, 0)), np.empty(0))
+
+
+@dataclass(frozen=True)
+class ExpertDemo:
+    """One executed demonstration and how it was chosen.
+
+    Attributes:
+        start_qpos: ``(nq,)`` the start configuration.
+        qpos, qvel: ``(T, nq)``, ``(T, nv)`` executed states after each step.
+        controls: ``(T, nu)`` applied controls.
+        features: ``(k,)`` features of the executed trajectory.
+        intended: ``(T, d)`` the task-space path the expert meant (m).
+        executed: ``(T, d)`` the task-space path MuJoCo executed (m).
+        tracking_error: Largest distance between them (m).
+        params: The chosen path's parameters.
+        value: ``w* · φ`` of the demo; ``best_value``: of the best candidate.
+        candidates: Candidates executed; ``ik_failures``: candidates mink could not follow.
+        poor: Whether it was a deliberately poor demo.
+    """
+
+    start_qpos: np.ndarray
+    qpos: np.ndarray
+    qvel: np.ndarray
+    controls: np.ndarray
+    features: np.ndarray
+    intended: np.ndarray
+    executed: np.ndarray
+    tracking_error: float
+    params: np.ndarray
+    value: float
+    best_value: float
+    candidates: int
+    ik_failures: int
+    poor: bool = False
+    failures: list[str] = field(default_factory=list)
+
+
+class Expert(abc.ABC):
+    """A scene's scripted demonstrator.
+
+    Subclasses say which paths they consider (``coarse_params``, ``perturb``) and how one is
+    turned into an executed trajectory (``execute``).
+    """
+
+    def __init__(self, scene: Scene, settings: ExpertSettings | None = None) -> None:
+        self.scene = scene
+        self.settings = settings or ExpertSettings()
+
+    @abc.abstractmethod
+    def coarse_params(self, start_qpos: np.ndarray) -> np.ndarray:
+        """The expert's first candidates from a start: path parameters ``(C, p)``."""
+
+    @abc.abstractmethod
+    def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int,
+                scale: float) -> np.ndarray:
+        """``count`` candidates near ``params`` ``(p,)``, spread ``scale`` (1 = the coarse grid's)."""
+
+    @abc.abstractmethod
+    def execute(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[ExecutedPaths, list[str]]:
+        """Track and execute candidate paths; -> those mink could follow, and why the rest failed."""
+
+    def demonstrate(self, start_qpos: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
+                    poor: bool = False) -> ExpertDemo:
+        """A demonstration from ``start_qpos`` judged by hidden ``weights``; see the module docs."""
+        weights = np.asarray(weights, dtype=float)
+        done, failures = self.execute(start_qpos, self.coarse_params(start_qpos))
+        pools = [done]
+        best = self._best(done, weights)
+        for r in range(self.settings.refine_rounds):
+            if best is None:
+                break
+            params = self.perturb(best[0], rng, self.settings.refine_candidates, 0.5 ** (r + 1))
+            more, why = self.execute(start_qpos, params)
+            pools.append(more)
+            failures += why
+            candidate = self._best(more, weights)
+            if candidate is not None and candidate[1] > best[1]:
+                best = candidate
+        if best is None:
+            raise ExpertError("no candidate path could be followed: " + "; ".join(failures[:3]))
+        pools = [p for p in pools if len(p.params)]
+        values = np.concatenate([p.features @ weights for p in pools])
+        values = np.where(np.isfinite(values), values, -np.inf)
+        usable = np.flatnonzero(np.isfinite(values))
+        if poor:
+            worse = usable[values[usable] <= np.median(values[usable])]
+            pick = int(rng.choice(worse))
+        elif self.settings.rationality is None:
+            pick = int(np.argmax(values))
+        else:
+            logits = self.settings.rationality * (values[usable] - values[usable].max())
+            p = np.exp(logits)
+            pick = int(rng.choice(usable, p=p / p.sum()))
+        pool_index = np.searchsorted(np.cumsum([len(p.params) for p in pools]), pick, side="right")
+        chosen = pools[pool_index]
+        j = pick - sum(len(p.params) for p in pools[:pool_index])
+        return ExpertDemo(
+            start_qpos=np.asarray(start_qpos, dtype=float).copy(), qpos=chosen.rollouts.qpos[j],
+            qvel=chosen.rollouts.qvel[j], controls=chosen.rollouts.controls[j],
+            features=chosen.features[j], intended=chosen.intended[j], executed=chosen.executed[j],
+            tracking_error=float(chosen.tracking_error[j]), params=chosen.params[j],
+            value=float(values[pick]), best_value=float(values[usable].max()),
+            candidates=len(values), ik_failures=len(failures), poor=poor, failures=failures)
+
+    @staticmethod
+    def _best(paths: ExecutedPaths, weights: np.ndarray) -> tuple[np.ndarray, float] | None:
+        if not len(paths.params):
+            return None
+        values = paths.features @ weights
+        if not np.isfinite(values).any():
+            return None
+        i = int(np.nanargmax(values))
+        return paths.params[i], float(values[i])

@@ -1,0 +1,115 @@
+"""Demo generation for a scenario: the instance of a replicate, its expert, demos in order.
+
+The instance, the hidden weights, the order of starts and each demo's randomness come from the same
+seed streams ``mjsuff run`` uses for that replicate, so a saved demo set holds exactly the demos a
+run of the same scenario and seed would be shown.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+from mjsuff import __version__
+from mjsuff.experiment.replicate import seed_sequence
+from mjsuff.experiment.scenario import Scenario
+from mjsuff.experiment.selection import passive_order
+from mjsuff.experts.demo_set import DemoSet
+from mjsuff.experts.expert import Expert, ExpertDemo
+from mjsuff.experts.lander import LanderExpert
+from mjsuff.experts.reacher import ReacherExpert
+from mjsuff.scenes.domain import draw_true_weights
+from mjsuff.scenes.lander import Lander
+from mjsuff.scenes.lava_reacher import LavaReacher
+from mjsuff.scenes.scene import Scene
+
+#: Registered scenes with kinesthetic experts: name -> (scene type, expert type).
+EXPERTS: dict[str, tuple[type[Scene], type[Expert]]] = {
+    "lava_reacher": (LavaReacher, ReacherExpert),
+    "lander": (Lander, LanderExpert),
+}
+
+
+def scene_instance(scenario: Scenario, replicate: int = 0) -> tuple[Scene, np.ndarray]:
+    """Replicate ``replicate``'s scene instance and hidden weights (as ``mjsuff run`` builds them)."""
+    if scenario.domain.name not in EXPERTS:
+        raise ValueError(f"domain.name: demos are generated for the MuJoCo scenes "
+                         f"{sorted(EXPERTS)}, not {scenario.domain.name!r}")
+    rng = np.random.default_rng(seed_sequence(scenario, replicate, "instance"))
+    scene = EXPERTS[scenario.domain.name][0](scenario.domain_params(), rng)
+    return scene, draw_true_weights(rng, scene.num_features)
+
+
+def instance_fingerprint(scene: Scene) -> str:
+    """A short hash of what makes an instance: model geometry and evaluation starts."""
+    h = hashlib.sha256()
+    for array in (scene.model.geom_pos, scene.model.geom_size, scene.model.site_pos, scene.starts):
+        h.update(np.ascontiguousarray(array, dtype=float).tobytes())
+    return h.hexdigest()[:16]
+
+
+def instance_meta(scenario: Scenario, replicate: int, scene: Scene) -> dict:
+    """The metadata a demo set of this instance carries (and is checked against on load)."""
+    return {"scene": scenario.domain.name, "seed": scenario.seed, "replicate": replicate,
+            "instance": instance_fingerprint(scene)}
+
+
+def generate_demos(scenario: Scenario, count: int, replicate: int = 0,
+                   on_demo: Callable[[int, ExpertDemo], None] | None = None,
+                   stop: Callable[[], bool] | None = None) -> DemoSet:
+    """``count`` demos of replicate ``replicate``'s instance, in the run's passive order.
+
+    Starts cycle through a shuffled order of the evaluation starts; a demo is poor with probability
+    ``demos.noise_fraction``. ``on_demo(i, demo)`` reports progress. On ``KeyboardInterrupt`` the
+    demos finished so far are returned (``meta["interrupted"]`` is True), never lost.
+    """
+    scene, weights = scene_instance(scenario, replicate)
+    expert = EXPERTS[scenario.domain.name][1](scene, scenario.expert)
+    demo_rng = np.random.default_rng(seed_sequence(scenario, replicate, "demos"))
+    order = passive_order(len(scene.starts),
+                          np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
+    demos: list[ExpertDemo] = []
+    starts: list[int] = []
+    interrupted = False
+    try:
+        for i in range(count):
+            start = int(order[i % len(order)])
+            poor = bool(demo_rng.random() < scenario.demos.noise_fraction)
+            demos.append(expert.demonstrate(scene.starts[start], weights, demo_rng, poor=poor))
+            starts.append(start)
+            if on_demo is not None:
+                on_demo(i, demos[-1])
+    except KeyboardInterrupt:
+        interrupted = True
+    m = scene.model
+    meta = {**instance_meta(scenario, replicate, scene),
+            "scene_params": scenario.domain_params().model_dump(mode="json"),
+            "expert": scenario.expert.model_dump(mode="json"),
+            "noise_fraction": scenario.demos.noise_fraction,
+            "feature_names": list(scene.feature_names), "num_features": scene.num_features,
+            "nq": m.nq, "nv": m.nv, "nu": m.nu, "steps": scene.spline.num_steps,
+            "path_dims": 2, "timestep": m.opt.timestep,
+            "mjsuff_version": __version__, "mujoco_version": mujoco.__version__,
+            "candidates": [d.candidates for d in demos], "ik_failures": [d.ik_failures for d in demos],
+            "params": [d.params.tolist() for d in demos], "interrupted": interrupted}
+    arrays = _stack(demos, starts, scene)
+    return DemoSet(arrays, meta, true_weights=weights, values=np.array([d.value for d in demos]))
+
+
+def _stack(demos: list[ExpertDemo], starts: list[int], scene: Scene) -> dict[str, np.ndarray]:
+    m, t = scene.model, scene.spline.num_steps
+    n = len(demos)
+
+    def stack(name: str, shape: tuple[int, ...]) -> np.ndarray:
+        return np.array([getattr(d, name) for d in demos], dtype=float).reshape(n, *shape)
+
+    return {"start_index": np.array(starts, dtype=np.int64).reshape(n),
+            "start_qpos": stack("start_qpos", (m.nq,)), "qpos": stack("qpos", (t, m.nq)),
+            "qvel": stack("qvel", (t, m.nv)), "controls": stack("controls", (t, m.nu)),
+            "features": stack("features", (scene.num_features,)),
+            "intended": stack("intended", (t, 2)), "executed": stack("executed", (t, 2)),
+            "tracking_error": stack("tracking_error", ()),
+            "poor": np.array([d.poor for d in demos], dtype=bool).reshape(n)}
