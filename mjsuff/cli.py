@@ -117,7 +117,7 @@ def cmd_hoeffding(args: argparse.Namespace) -> int:
 
 def cmd_demos(args: argparse.Namespace) -> int:
     from mjsuff.experts.demo_set import truth_path
-    from mjsuff.experts.generate import generate_demos  # MuJoCo and mink only when asked for
+    from mjsuff.experts.generate import EXPERTS, generate_demos  # mink only when asked for
 
     try:
         overrides = list(args.set or [])
@@ -126,6 +126,14 @@ def cmd_demos(args: argparse.Namespace) -> int:
         scenario = load_scenario(args.scenario, overrides)
     except ScenarioError as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    if scenario.domain.name not in EXPERTS:
+        err.print(f"[red]error:[/] {args.scenario}: domain.name: demos are generated for the MuJoCo "
+                  f"scenes {sorted(EXPERTS)}, not {scenario.domain.name!r}", highlight=False)
+        return EXIT_USAGE
+    if args.count is not None and args.count < 1:
+        err.print(f"[red]error:[/] --count: expected a positive number, got {args.count}",
+                  highlight=False)
         return EXIT_USAGE
     count = args.count or scenario.demos.max_demos or 10
     path = Path(args.out or f"demos/{scenario.name}-seed{scenario.seed}-r{args.replicate}.npz")

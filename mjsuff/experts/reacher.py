@@ -7,8 +7,8 @@ holding. mink IK (a position task on the fingertip site, posture regularization 
 configuration and velocity limits) turns each path into a joint reference, and the position servos
 execute it with inverse-dynamics feedforward: ``ctrl = q_ref + (τ_ref + k_v q̇_ref) / k_p``, where
 ``τ_ref`` comes from ``mj_inverse`` on the reference, so the fingertip follows the intended path
-closely (the servos' forces stay well inside their range on these paths). The coarse grid is 7 offsets × 4 durations × 3 reach shares plus holding still; refinement
-rounds perturb the best path.
+closely (the servos' forces stay well inside their range on these paths). The coarse grid is
+7 offsets × 4 durations × 3 reach shares plus holding still; refinement rounds perturb the best path.
 """
 
 from __future__ import annotations

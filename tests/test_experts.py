@@ -1,0 +1,129 @@
+"""Kinesthetic experts (issue #4): tracking, quality against the planner, behaviour under w*.
+
+Gaps are in units of the start's scale, ``(V_plan − V_demo) / (V_plan − V_rand)``; a negative gap
+means the expert beat the planner.
+"""
+
+import numpy as np
+import pytest
+
+from mjsuff.experts.expert import ExpertError, ExpertSettings
+from mjsuff.experts.lander import LanderExpert
+from mjsuff.experts.reacher import ReacherExpert
+from mjsuff.scenes.lander import Lander, LanderParams
+from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
+from mjsuff.scenes.planner import CEMPlanner
+
+STARTS = 3
+SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
+          "lander": (Lander, LanderParams, LanderExpert)}
+# Stated gaps (mean over the starts). Measured on these seeds: reacher ≤ 0 (the expert beats the
+# planner); lander 0.03-0.11 per start, mean 0.08: its fall-and-brake family flies less tilted and
+# burns more fuel than the planner's free spline, and its thrust controller lags the path.
+MEAN_GAP = {"lava_reacher": 0.02, "lander": 0.12}
+
+
+def unit(w):
+    w = np.asarray(w, dtype=float)
+    return w / np.linalg.norm(w)
+
+
+@pytest.fixture(scope="module", params=sorted(SCENES))
+def setup(request):
+    scene_type, params_type, expert_type = SCENES[request.param]
+    scene = scene_type(params_type(eval_starts=STARTS), np.random.default_rng(0))
+    return request.param, scene, expert_type(scene)
+
+
+def test_demos_are_near_the_planners_optimum(setup):
+    name, scene, expert = setup
+    w = -unit([0.5, 0.6, 0.4, 0.3][: scene.num_features])
+    demos = [expert.demonstrate(scene.starts[s], w, np.random.default_rng(s)) for s in range(STARTS)]
+    planned = CEMPlanner(scene, scene.planner_config).plan(
+        np.arange(STARTS), np.tile(w, (STARTS, 1)), np.random.default_rng(0)).values
+    _, random_features = scene.simulate(np.repeat(scene.starts, 32, axis=0),
+                                        scene.spline.uniform(np.random.default_rng(1), 32 * STARTS))
+    v_rand = np.nanmean(random_features.reshape(STARTS, 32, -1), axis=1) @ w
+    values = np.array([d.value for d in demos])
+    np.testing.assert_allclose(values, [d.features @ w for d in demos])
+    gaps = (planned - values) / (np.maximum(planned, values) - v_rand)
+    assert gaps.mean() <= MEAN_GAP[name], gaps.round(3)
+    assert all(d.value == d.best_value for d in demos)  # a rational expert shows its best
+
+
+def test_reacher_tracks_the_intended_fingertip_path_within_a_centimetre():
+    scene = LavaReacher(LavaReacherParams(eval_starts=4), np.random.default_rng(3))
+    expert = ReacherExpert(scene, ExpertSettings(refine_rounds=0))
+    for s, w in enumerate([[-0.3, -0.9, -0.3], [-0.9, -0.05, -0.4], [-0.2, -0.2, -0.96], [-1, -1, -0.1]]):
+        demo = expert.demonstrate(scene.starts[s], unit(w), np.random.default_rng(s))
+        # Measured ≤ 2 mm; the acceptance bound is 1 cm.
+        assert demo.tracking_error <= 0.01, demo.tracking_error
+        assert demo.qpos.shape == (scene.spline.num_steps, 3) and np.isfinite(demo.qpos).all()
+
+
+def test_reacher_detours_around_the_lava_only_when_it_costs():
+    scene = LavaReacher(LavaReacherParams(eval_starts=2), np.random.default_rng(0))
+    expert = ReacherExpert(scene)
+    start = scene.starts[0]
+    careful = expert.demonstrate(start, unit([-0.2, -0.97, -0.1]), np.random.default_rng(0))
+    hasty = expert.demonstrate(start, unit([-0.97, -0.01, -0.2]), np.random.default_rng(0))
+    length = {k: np.linalg.norm(np.diff(d.executed, axis=0), axis=1).sum()
+              for k, d in (("careful", careful), ("hasty", hasty))}
+    assert careful.features[1] < 0.2 * hasty.features[1]
+    assert hasty.features[1] > 0.0
+    assert length["careful"] > length["hasty"]
+    assert abs(careful.params[0]) > abs(hasty.params[0])  # a wider bulge
+
+
+def test_lander_fuel_weight_trades_fuel_for_a_harder_landing():
+    scene = Lander(LanderParams(eval_starts=2), np.random.default_rng(0))
+    expert = LanderExpert(scene)
+    start = scene.starts[0]
+    frugal = expert.demonstrate(start, unit([-0.3, -0.05, -0.95, -0.1]), np.random.default_rng(0))
+    gentle = expert.demonstrate(start, unit([-0.3, -0.95, -0.05, -0.1]), np.random.default_rng(0))
+    assert frugal.features[2] < gentle.features[2]  # fuel
+    assert frugal.features[1] > 2 * gentle.features[1]  # impact
+
+
+def test_poor_and_boltzmann_demos(setup):
+    _, scene, expert = setup
+    w = -unit(np.ones(scene.num_features))
+    best = expert.demonstrate(scene.starts[0], w, np.random.default_rng(0))
+    poor = expert.demonstrate(scene.starts[0], w, np.random.default_rng(0), poor=True)
+    assert poor.poor and poor.value < best.value
+    noisy = type(expert)(scene, ExpertSettings(rationality=1.0, refine_rounds=0))
+    values = {round(noisy.demonstrate(scene.starts[0], w, np.random.default_rng(i)).value, 9)
+              for i in range(6)}
+    assert len(values) > 1  # low rationality: different choices under different seeds
+
+
+def test_same_seed_same_demo(setup):
+    _, scene, expert = setup
+    w = -unit(np.arange(1, scene.num_features + 1))
+    a = expert.demonstrate(scene.starts[1], w, np.random.default_rng(4))
+    b = expert.demonstrate(scene.starts[1], w, np.random.default_rng(4))
+    np.testing.assert_array_equal(a.controls, b.controls)
+    np.testing.assert_array_equal(a.features, b.features)
+
+
+def test_demo_replays_to_its_features(setup):
+    _, scene, expert = setup
+    w = -unit(np.ones(scene.num_features))
+    demo = expert.demonstrate(scene.starts[0], w, np.random.default_rng(0))
+    rollouts, features = scene.simulate_controls(demo.start_qpos, demo.controls[None])
+    np.testing.assert_allclose(features[0], demo.features)
+    np.testing.assert_allclose(rollouts.qpos[0], demo.qpos)
+
+
+def test_ik_failures_are_counted_and_an_all_failed_start_is_an_error():
+    scene = LavaReacher(LavaReacherParams(eval_starts=2), np.random.default_rng(0))
+    expert = ReacherExpert(scene)
+    done, failures = expert.execute(scene.starts[0], np.array([[0.0, 1.0, 1.0], [0.6, 0.3, 1.0]]))
+    assert len(done.params) == 1 and len(failures) == 1 and "missed by" in failures[0]
+
+    class Hopeless(ReacherExpert):
+        def coarse_params(self, start_qpos):
+            return np.array([[0.8, 0.3, 1.0]])
+
+    with pytest.raises(ExpertError, match="no candidate path"):
+        Hopeless(scene).demonstrate(scene.starts[0], -unit([1, 1, 1]), np.random.default_rng(0))
