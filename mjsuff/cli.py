@@ -129,11 +129,12 @@ def cmd_demos(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     if scenario.domain.name not in EXPERTS:
         err.print(f"[red]error:[/] {args.scenario}: domain.name: demos are generated for the MuJoCo "
-                  f"scenes {sorted(EXPERTS)}, not {scenario.domain.name!r}", highlight=False)
+                  f"scenes {sorted(EXPERTS)}, not {scenario.domain.name!r}", highlight=False,
+                  soft_wrap=True)
         return EXIT_USAGE
     if args.count is not None and args.count < 1:
         err.print(f"[red]error:[/] --count: expected a positive number, got {args.count}",
-                  highlight=False)
+                  highlight=False, soft_wrap=True)
         return EXIT_USAGE
     count = args.count or scenario.demos.max_demos or 10
     path = Path(args.out or f"demos/{scenario.name}-seed{scenario.seed}-r{args.replicate}.npz")
