@@ -127,3 +127,15 @@ def test_ik_failures_are_counted_and_an_all_failed_start_is_an_error():
 
     with pytest.raises(ExpertError, match="no candidate path"):
         Hopeless(scene).demonstrate(scene.starts[0], -unit([1, 1, 1]), np.random.default_rng(0))
+
+
+def test_scene_domain_demonstrates_through_its_expert():
+    from mjsuff.domains import get_domain
+
+    domain = get_domain("lava_reacher").make({"eval_starts": 2}, np.random.default_rng(0))
+    demo = domain.demonstrate(1, np.random.default_rng(0))
+    assert demo.start == 1 and not demo.poor
+    direct = domain.expert.demonstrate(domain.scene.starts[1], domain.true_weights,
+                                       np.random.default_rng(0))
+    np.testing.assert_array_equal(demo.data["features"], direct.features)
+    np.testing.assert_array_equal(demo.data["controls"], direct.controls)

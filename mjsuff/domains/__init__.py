@@ -45,7 +45,8 @@ def _scene(scene_type: type) -> Callable[[BaseModel, np.random.Generator], Domai
     return factory
 
 
-_NO_DEMOS = "its kinesthetic demonstrations and trajectory likelihood are not built yet (issues #4, #5)"
+_NO_DEMOS = ("its trajectory-level likelihood is not built yet (issue #5); "
+             "`mjsuff demos` generates its demonstrations")
 
 REGISTRY: dict[str, DomainSpec] = {
     "gridworld": DomainSpec("gridworld", GridworldParams, make_gridworld),

@@ -11,6 +11,8 @@ library, and the answer is the library maximum again, so it never drops below it
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from pydantic import BaseModel
 
@@ -25,7 +27,7 @@ RANDOM_TRAJECTORIES = 64
 
 
 class SceneDomain(Domain):
-    """A MuJoCo scene instance as a Domain (demos and likelihood arrive with issues #4 and #5).
+    """A MuJoCo scene instance as a Domain (the trajectory likelihood arrives with issue #5).
 
     Args:
         scene: The randomized scene instance.
@@ -37,13 +39,16 @@ class SceneDomain(Domain):
         seed_directions: Reward directions (spread over the all-negative orthant) planned from
             every start when the instance is built, so the library holds each mode's optimum.
         seed_planner: Budget of those seed plans.
+        expert: The kinesthetic demonstrator (``mjsuff.experts``); without one, ``demonstrate``
+            raises.
     """
 
     def __init__(self, scene: Scene, rng: np.random.Generator,
                  planner: PlannerConfig | None = None, refine: PlannerConfig | None = None,
                  max_groups: int = 16, rounds: int = 2, seed_directions: int = 8,
-                 seed_planner: PlannerConfig | None = None) -> None:
+                 seed_planner: PlannerConfig | None = None, expert: Any = None) -> None:
         self.scene = scene
+        self.expert = expert
         self.rng = rng
         self.num_features = scene.num_features
         self.true_weights = draw_true_weights(rng, scene.num_features)
@@ -118,9 +123,16 @@ class SceneDomain(Domain):
     def policy_optimality(self, policy: np.ndarray) -> float:
         raise NotImplementedError("per-start optimality arrives with issue #5")
 
-    # -- expert and likelihood: issues #4 and #5 ---------------------------------------------
+    # -- expert (issue #4) and likelihood (issue #5) -------------------------------------------
     def demonstrate(self, start: int, rng: np.random.Generator, poor: bool = False) -> Demo:
-        raise NotImplementedError("kinesthetic demonstrations arrive with issue #4")
+        """The expert's executed demo from evaluation start ``start``; ``data`` holds its arrays
+        (``features``, ``qpos``, ``qvel``, ``controls``, ``intended``, ``executed``)."""
+        if self.expert is None:
+            raise RuntimeError("this SceneDomain has no expert; build it with make_scene_domain")
+        demo = self.expert.demonstrate(self.scene.starts[start], self.true_weights, rng, poor=poor)
+        data = {name: getattr(demo, name) for name in
+                ("features", "qpos", "qvel", "controls", "intended", "executed")}
+        return Demo(start=start, poor=poor, data=data)
 
     def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
         raise NotImplementedError("the trajectory-level likelihood arrives with issue #5")
@@ -133,5 +145,9 @@ def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
 
 def make_scene_domain(scene_type: type[Scene], params: BaseModel,
                       rng: np.random.Generator) -> SceneDomain:
-    """Build a scene instance and wrap it, drawing both from ``rng``."""
-    return SceneDomain(scene_type(params, rng), rng)
+    """Build a scene instance and wrap it with its expert, drawing both from ``rng``."""
+    from mjsuff.experts.generate import EXPERTS  # the experts import the scenes
+
+    scene = scene_type(params, rng)
+    expert_type = next(e for s, e in EXPERTS.values() if s is scene_type)
+    return SceneDomain(scene, rng, expert=expert_type(scene))
