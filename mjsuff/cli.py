@@ -17,7 +17,7 @@ from mjsuff import __version__
 from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import RunResult, check_runnable, run_scenario
-from mjsuff.experiment.scenario import ScenarioError, load_scenario
+from mjsuff.experiment.scenario import Scenario, ScenarioError, load_scenario
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -53,16 +53,23 @@ def summary_table(result: RunResult, thresholds: list[float]) -> Table:
     return table
 
 
-def cmd_run(args: argparse.Namespace) -> int:
+def _load(args: argparse.Namespace) -> Scenario | None:
+    """The scenario with ``--set``/``--seed``/``--replicates`` applied; None after printing why not."""
+    overrides = list(args.set or [])
+    if args.seed is not None:
+        overrides.append(f"seed={args.seed}")
+    if getattr(args, "replicates", None) is not None:
+        overrides.append(f"replicates={args.replicates}")
     try:
-        overrides = list(args.set or [])
-        if args.seed is not None:
-            overrides.append(f"seed={args.seed}")
-        if args.replicates is not None:
-            overrides.append(f"replicates={args.replicates}")
-        scenario = load_scenario(args.scenario, overrides)
+        return load_scenario(args.scenario, overrides)
     except ScenarioError as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return None
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    scenario = _load(args)
+    if scenario is None:
         return EXIT_USAGE
     directory = Path(args.out) if args.out else Path("runs") / (
         f"{scenario.name}-{time.strftime('%Y%m%d-%H%M%S')}")
@@ -119,13 +126,8 @@ def cmd_demos(args: argparse.Namespace) -> int:
     from mjsuff.experts.demo_set import truth_path
     from mjsuff.experts.generate import EXPERTS, generate_demos  # mink only when asked for
 
-    try:
-        overrides = list(args.set or [])
-        if args.seed is not None:
-            overrides.append(f"seed={args.seed}")
-        scenario = load_scenario(args.scenario, overrides)
-    except ScenarioError as exc:
-        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+    scenario = _load(args)
+    if scenario is None:
         return EXIT_USAGE
     if scenario.domain.name not in EXPERTS:
         err.print(f"[red]error:[/] {args.scenario}: domain.name: demos are generated for the MuJoCo "
