@@ -43,6 +43,15 @@ def test_round_trip_gives_identical_arrays(saved, scenario):
         assert "true_weights" not in str(data["meta"])
 
 
+def test_demos_are_for_the_instance_and_weights_a_run_uses(scenario):
+    from mjsuff.experiment.replicate import make_instance
+
+    domain = make_instance(scenario, 0)
+    scene, weights = scene_instance(scenario, 0)
+    np.testing.assert_array_equal(domain.true_weights, weights)
+    np.testing.assert_array_equal(domain.scene.starts, scene.starts)
+
+
 def test_generation_is_reproducible(saved, scenario):
     again = generate_demos(scenario, 2)
     for name, array in saved[0].arrays.items():

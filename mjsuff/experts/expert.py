@@ -142,6 +142,7 @@ class Expert(abc.ABC):
         if best is None:
             raise ExpertError("no candidate path could be followed: " + "; ".join(failures[:3]))
         pools = [p for p in pools if len(p.params)]
+        where = [(p, j) for p in pools for j in range(len(p.params))]  # flat index -> (pool, row)
         values = np.concatenate([p.features @ weights for p in pools])
         values = np.where(np.isfinite(values), values, -np.inf)
         usable = np.flatnonzero(np.isfinite(values))
@@ -154,9 +155,7 @@ class Expert(abc.ABC):
             logits = self.settings.rationality * (values[usable] - values[usable].max())
             p = np.exp(logits)
             pick = int(rng.choice(usable, p=p / p.sum()))
-        pool_index = np.searchsorted(np.cumsum([len(p.params) for p in pools]), pick, side="right")
-        chosen = pools[pool_index]
-        j = pick - sum(len(p.params) for p in pools[:pool_index])
+        chosen, j = where[pick]
         return ExpertDemo(
             start_qpos=np.asarray(start_qpos, dtype=float).copy(), qpos=chosen.rollouts.qpos[j],
             qvel=chosen.rollouts.qvel[j], controls=chosen.rollouts.controls[j],

@@ -7,13 +7,13 @@ the thrust: ``tan θ = A cos(π F)``, where ``F`` is the share of the descent's 
 impulse spent so far, so the craft leans toward the pad, then back, and arrives with no sideways
 speed; ``A`` makes it shift by ``lateral`` × (pad − start), capped by the largest allowed pitch.
 The pitch is blended in from the start's own. Every path is thus one the engine can fly.
-mink IK (a frame task on the craft body,
-position and orientation) turns the pose path into references for the x, z and pitch joints, and a
-thrust controller tracks them: a PD law on position gives the desired force, its component along
-the body axis sets the throttle and its direction the pitch target, which a PD attitude loop
-follows; after touchdown the engine is cut and the craft is held level. The controller runs in
-closed loop (all candidates stepped side by side); the executed controls replayed open loop through
-``mujoco.rollout`` reproduce the same trajectory, and that replay is the demo.
+mink IK (a frame task on the craft body, position and orientation) turns the pose path into
+references for the x, z and pitch joints, and a thrust controller tracks them: a PD law on
+position gives the desired force, its component along the body axis sets the throttle and its
+direction the pitch target, which a PD attitude loop follows; after touchdown the engine is cut
+and the craft is held level. The controller runs in closed loop (all candidates stepped side by
+side); the executed controls replayed open loop through ``mujoco.rollout`` reproduce the same
+trajectory, and that replay is the demo.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from mjsuff.experts.expert import ExecutedPaths, Expert, ExpertSettings
-from mjsuff.experts.ik import IKFailure, IKSettings, JointReference, PathTracker
+from mjsuff.experts.ik import IKFailure, IKSettings, PathTracker
 from mjsuff.experts.paths import fall_and_brake, minimum_jerk
 from mjsuff.scenes.lander import REST_HEIGHT, TOUCH_THRESHOLD, Lander
 
@@ -77,12 +77,10 @@ class LanderExpert(Expert):
         steps, dt = self.scene.spline.num_steps, self.scene.model.opt.timestep
         t = np.arange(steps + 1) * dt
         x0, z0, pitch0 = start_qpos
-        drop, _, arrival = fall_and_brake(t, z0 - REST_HEIGHT, fall * self.gravity,
-                                          brake * self.brake_margin, speed)
+        drop, downward, arrival = fall_and_brake(t, z0 - REST_HEIGHT, fall * self.gravity,
+                                                 brake * self.brake_margin, speed)
         # Vertical thrust per unit mass, a_z + g, along the descent (0 once landed).
-        lift = np.where(t < arrival, np.where(np.gradient(np.gradient(drop, dt), dt) > 0,
-                                              self.gravity - fall * self.gravity,
-                                              self.gravity + brake * self.brake_margin), 0.0)
+        lift = np.where(t < arrival, self.gravity - downward, 0.0)
         # tan θ = A cos(π F), F the share of the lift impulse so far: sideways speed is zero again
         # on arrival; A scales the sideways shift to its target (capped by the largest pitch).
         impulse = np.concatenate([[0.0], np.cumsum(lift[:-1]) * dt])
@@ -101,11 +99,9 @@ class LanderExpert(Expert):
         return positions, quats
 
     def control(self, qpos: np.ndarray, qvel: np.ndarray, touched: np.ndarray,
-                reference: list[JointReference], t: int) -> np.ndarray:
-        """Throttle and attitude commands ``(C, 2)`` for all candidates at step ``t``."""
-        q_ref = np.array([r.qpos[t] for r in reference])
-        v_ref = np.array([r.qvel[t] for r in reference])
-        a_ref = np.array([r.qacc[t] for r in reference])
+                q_ref: np.ndarray, v_ref: np.ndarray, a_ref: np.ndarray) -> np.ndarray:
+        """Throttle and attitude commands ``(C, 2)`` for all candidates, from their states and
+        references ``(C, 3)`` at this step."""
         force = self.mass * (a_ref[:, :2] + KP * (q_ref[:, :2] - qpos[:, :2])
                              + KD * (v_ref[:, :2] - qvel[:, :2]))
         force[:, 1] += self.mass * self.gravity
@@ -141,11 +137,13 @@ class LanderExpert(Expert):
         steps = self.scene.spline.num_steps
         controls = np.empty((len(kept), steps, m.nu))
         touched = np.zeros(len(kept), dtype=bool)
+        q_ref, v_ref, a_ref = (np.stack([getattr(r, name) for r in references])
+                               for name in ("qpos", "qvel", "qacc"))
         for t in range(steps):
             qpos = np.array([d.qpos for d in datas])
             qvel = np.array([d.qvel for d in datas])
             touched |= np.array([(d.sensordata[:2] > TOUCH_THRESHOLD).any() for d in datas])
-            controls[:, t] = self.control(qpos, qvel, touched, references, t)
+            controls[:, t] = self.control(qpos, qvel, touched, q_ref[:, t], v_ref[:, t], a_ref[:, t])
             for d, u in zip(datas, controls[:, t], strict=True):
                 d.ctrl[:] = u
                 mujoco.mj_step(m, d)

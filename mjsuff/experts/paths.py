@@ -22,8 +22,9 @@ def fall_and_brake(t: np.ndarray, height: float, fall: float, brake: float,
     """A vertical descent from rest over ``height`` (m): accelerate down at ``fall`` (m/s²), then
     brake at ``brake`` (m/s²) to arrive at ``touchdown_speed`` (m/s); at rest on arrival after.
 
-    Returns the drop below the start ``(T,)`` (m), the downward speed ``(T,)`` (m/s) and the arrival
-    time (s). A touchdown speed above what falling the whole way reaches is a pure fall.
+    Returns the drop below the start ``(T,)`` (m), the downward acceleration ``(T,)`` (m/s²; ``fall``,
+    then ``−brake``, then 0) and the arrival time (s). A touchdown speed above what falling the whole
+    way reaches is a pure fall.
     """
     free = np.sqrt(2.0 * fall * height)
     if touchdown_speed >= free:
@@ -34,7 +35,7 @@ def fall_and_brake(t: np.ndarray, height: float, fall: float, brake: float,
     arrival = fall_time + brake_time
     tb = np.clip(t - fall_time, 0.0, brake_time)
     tf = np.minimum(t, fall_time)
-    speed = np.where(t < fall_time, fall * tf, peak - brake * tb)
     drop = 0.5 * fall * tf**2 + peak * tb - 0.5 * brake * tb**2
     landed = t >= arrival
-    return np.where(landed, height, drop), np.where(landed, 0.0, speed), float(arrival)
+    acceleration = np.where(landed, 0.0, np.where(t < fall_time, fall, -brake))
+    return np.where(landed, height, drop), acceleration, float(arrival)

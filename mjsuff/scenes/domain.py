@@ -11,7 +11,7 @@ library, and the answer is the library maximum again, so it never drops below it
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pydantic import BaseModel
@@ -21,6 +21,9 @@ from mjsuff.scenes.library import TrajectoryLibrary
 from mjsuff.scenes.planner import CEMPlanner, PlannerConfig
 from mjsuff.scenes.scene import Scene
 from mjsuff.sphere import normalize, random_unit_vectors
+
+if TYPE_CHECKING:
+    from mjsuff.experts.expert import Expert
 
 #: Uniform-random trajectories per start that estimate the random policy's features.
 RANDOM_TRAJECTORIES = 64
@@ -46,7 +49,7 @@ class SceneDomain(Domain):
     def __init__(self, scene: Scene, rng: np.random.Generator,
                  planner: PlannerConfig | None = None, refine: PlannerConfig | None = None,
                  max_groups: int = 16, rounds: int = 2, seed_directions: int = 8,
-                 seed_planner: PlannerConfig | None = None, expert: Any = None) -> None:
+                 seed_planner: PlannerConfig | None = None, expert: Expert | None = None) -> None:
         self.scene = scene
         self.expert = expert
         self.rng = rng
