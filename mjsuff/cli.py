@@ -16,7 +16,7 @@ from rich.table import Table
 from mjsuff import __version__
 from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
 from mjsuff.experiment.results import OutputError
-from mjsuff.experiment.runner import RunResult, check_runnable, run_scenario
+from mjsuff.experiment.runner import RunResult, run_scenario
 from mjsuff.experiment.scenario import Scenario, ScenarioError, load_scenario
 
 EXIT_USAGE = 2
@@ -89,14 +89,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         state["replicate"] = replicate + 1
         progress.update(task, completed=replicate + 1)
 
-    try:
-        check_runnable(scenario)  # before the progress bar, so the error stays one line
-    except ScenarioError as exc:
-        err.print(f"[red]error:[/] {args.scenario}: {exc}", highlight=False, soft_wrap=True)
-        return EXIT_USAGE
+    sources = None
+    if args.demos:
+        from mjsuff.experts.demo_set import DemoFileError
+        from mjsuff.experts.recorded import load_recorded_demos  # mink only when asked for
+
+        try:
+            sources = load_recorded_demos(args.demos, scenario)
+        except (DemoFileError, ValueError) as exc:
+            err.print(f"[red]error:[/] --demos: {exc}", highlight=False, soft_wrap=True)
+            return EXIT_USAGE
     try:
         with progress:
-            result = run_scenario(scenario, directory, args.overwrite, on_step, on_replicate)
+            result = run_scenario(scenario, directory, args.overwrite, on_step, on_replicate,
+                                  sources)
     except OutputError as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
@@ -206,6 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", metavar="KEY=VALUE",
                      help="override a scenario key, e.g. --set sufficiency.alpha=0.99 "
                           "(repeatable)")
+    run.add_argument("--demos", action="append", metavar="FILE",
+                     help="a saved demo set (mjsuff demos) for the replicate it names, instead of "
+                          "the live expert; repeat for more replicates")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the results in a non-empty --out directory")
     run.add_argument("--quiet", action="store_true", help="no progress bar or summary table")

@@ -13,9 +13,12 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from mjsuff.experiment.scenario import Scenario
 
 Policy = Any
 """A domain's robot policy: opaque above the seam (an action per state for tabular domains)."""
@@ -92,6 +95,16 @@ class Domain(abc.ABC):
     @abc.abstractmethod
     def policy_optimality(self, policy: Policy) -> float:
         """Ground truth: fraction of decisions of ``policy`` that are optimal under ``w*``."""
+
+    def configure(self, scenario: Scenario) -> None:
+        """Take scenario-level settings the domain reads (the scenes: expert, trajectory
+        tolerances). Nothing by default."""
+        return None
+
+    def true_optimal_start_values(self) -> np.ndarray:
+        """Ground truth ``V*_{w*}(s)`` per evaluation start ``(S,)``; domains whose ``V*`` is an
+        approximation compute it here with a larger budget."""
+        return self.optimal_start_values(self.true_weights[None])[0]
 
     def policy_key(self, policy: Policy) -> bytes:
         """A hashable identity for caching per-policy results."""

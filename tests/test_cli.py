@@ -151,11 +151,3 @@ def test_sigint_mid_run_leaves_readable_results(tmp_path):
     steps = pd.read_parquet(out / "steps.parquet")
     assert 1 <= steps["replicate"].nunique() < 50
     assert not list(out.glob("**/*.tmp"))
-
-
-def test_scene_without_demos_is_refused_in_one_line(tmp_path, capsys):
-    scenario = str(Path(__file__).parent.parent / "scenarios" / "lander.toml")
-    assert main(["run", scenario, "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "domain.name: 'lander' cannot be run yet" in err
-    assert not (tmp_path / "o").exists()

@@ -25,7 +25,7 @@ def make(name, seed=0, **params):
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_registered_with_their_parameters(name):
     assert REGISTRY[name].params is SCENES[name][1]
-    assert REGISTRY[name].missing  # the likelihood comes with issue #5
+    assert REGISTRY[name].kind == "scene"
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))

@@ -5,7 +5,7 @@ from mjsuff.domains import REGISTRY
 from mjsuff.domains.tabular import OptimalPolicyCache
 from mjsuff.sphere import random_unit_vectors
 
-TABULAR = sorted(n for n, spec in REGISTRY.items() if not spec.missing)
+TABULAR = sorted(n for n, spec in REGISTRY.items() if spec.kind == "tabular")
 
 
 def instance(name, seed=0):

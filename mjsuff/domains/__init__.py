@@ -21,13 +21,13 @@ class DomainSpec:
     """A registered domain: how to build a random instance and which parameters it takes.
 
     Attributes:
-        missing: Why ``mjsuff run`` cannot run it yet (empty when it can).
+        kind: ``"tabular"`` (exact MDP) or ``"scene"`` (MuJoCo, trajectory-level).
     """
 
     name: str
     params: type[BaseModel]
     factory: Callable[[BaseModel, np.random.Generator], Domain]
-    missing: str = ""
+    kind: str = "tabular"
 
     def make(self, params: BaseModel | dict | None, rng: np.random.Generator) -> Domain:
         """Validate ``params`` (defaults when ``None``) and build an instance from ``rng``."""
@@ -45,14 +45,11 @@ def _scene(scene_type: type) -> Callable[[BaseModel, np.random.Generator], Domai
     return factory
 
 
-_NO_DEMOS = ("its trajectory-level likelihood is not built yet (issue #5); "
-             "`mjsuff demos` generates its demonstrations")
-
 REGISTRY: dict[str, DomainSpec] = {
     "gridworld": DomainSpec("gridworld", GridworldParams, make_gridworld),
     "driving": DomainSpec("driving", DrivingParams, make_driving),
-    "lava_reacher": DomainSpec("lava_reacher", LavaReacherParams, _scene(LavaReacher), _NO_DEMOS),
-    "lander": DomainSpec("lander", LanderParams, _scene(Lander), _NO_DEMOS),
+    "lava_reacher": DomainSpec("lava_reacher", LavaReacherParams, _scene(LavaReacher), "scene"),
+    "lander": DomainSpec("lander", LanderParams, _scene(Lander), "scene"),
 }
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -47,7 +47,9 @@ def build_rules(scenario: Scenario) -> list[StoppingRule]:
 def make_instance(scenario: Scenario, replicate: int) -> Domain:
     """The domain instance of ``replicate`` (its own seed stream)."""
     rng = np.random.default_rng(seed_sequence(scenario, replicate, "instance"))
-    return get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
+    domain = get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
+    domain.configure(scenario)
+    return domain
 
 
 _STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3}
@@ -59,13 +61,18 @@ def seed_sequence(scenario: Scenario, replicate: int, stream: str, *key: int) ->
 
 
 class _Truth:
-    """Ground truth under ``w*`` for any policy, cached per policy."""
+    """Ground truth under ``w*`` for any policy, cached per policy.
+
+    ``V*_{w*}`` comes from ``Domain.true_optimal_start_values``; from each start it is raised to the
+    policy's own value where a policy beats it (possible when ``V*`` is approximate), so a true
+    nEVD is never negative.
+    """
 
     def __init__(self, domain: Domain) -> None:
         self.domain = domain
         w = domain.true_weights[None]
         sw = domain.start_weights
-        self.v_opt = float(domain.optimal_values(w)[0])
+        self.v_opt_starts = domain.true_optimal_start_values()
         self.v_rand = float(policy_values(w, domain.random_start_feature_expectations(), sw)[0])
         self.v_base = float(policy_values(w, domain.baseline_start_feature_expectations(), sw)[0])
         self._cache: dict[bytes, tuple[float, float, float]] = {}
@@ -77,16 +84,27 @@ class _Truth:
             w = self.domain.true_weights[None]
             mu = self.domain.start_feature_expectations(policy)
             v = policy_values(w, mu, self.domain.start_weights)
-            nevd = float(normalized_evd(np.array([self.v_opt]), v, np.array([self.v_rand]))[0])
+            v_opt = self.domain.start_weights @ np.maximum(self.v_opt_starts, mu @ w[0])
+            nevd = float(normalized_evd(np.array([v_opt]), v, np.array([self.v_rand]))[0])
             piob = float(percent_improvement(v, np.array([self.v_base]))[0])
             self._cache[key] = (nevd, piob, self.domain.policy_optimality(policy))
         return self._cache[key]
 
 
-def run_replicate(scenario: Scenario, replicate: int,
-                  on_step: StepCallback | None = None) -> list[dict[str, Any]]:
-    """Run one replicate; returns one row per rule and demo step (see README, steps.parquet)."""
+class DemoSource(Protocol):
+    """Where a replicate's demos come from when not from the domain's own expert."""
+
+    def demonstrate(self, start: int, rng: np.random.Generator, poor: bool = False) -> Demo: ...
+
+
+def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | None = None,
+                  demo_source: DemoSource | None = None) -> list[dict[str, Any]]:
+    """Run one replicate; returns one row per rule and demo step (see README, steps.parquet).
+
+    ``demo_source`` (e.g. a saved demo set) replaces the domain's expert.
+    """
     domain = make_instance(scenario, replicate)
+    source: DemoSource = demo_source or domain
     rules = build_rules(scenario)
     for rule in rules:
         rule.reset()
@@ -130,7 +148,8 @@ def run_replicate(scenario: Scenario, replicate: int,
         start = next_start
         asked.add(start)
         poor = bool(demo_rng.random() < cfg.noise_fraction)
-        demos.append(domain.demonstrate(start, demo_rng, poor=poor))
+        demos.append(source.demonstrate(start, demo_rng, poor=poor))
+        poor = demos[-1].poor
 
         post, map_policy = posterior_excluding(frozenset())
         w = post.samples

@@ -13,9 +13,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mjsuff import __version__
-from mjsuff.domains import get_domain
 from mjsuff.experiment.measures import summarize
-from mjsuff.experiment.replicate import StepCallback, run_replicate
+from mjsuff.experiment.replicate import DemoSource, StepCallback, run_replicate
 from mjsuff.experiment.results import (
     atomic_write_parquet,
     atomic_write_text,
@@ -24,7 +23,7 @@ from mjsuff.experiment.results import (
     write_json,
     write_replicate,
 )
-from mjsuff.experiment.scenario import Scenario, ScenarioError
+from mjsuff.experiment.scenario import Scenario
 
 
 @dataclass(frozen=True)
@@ -61,28 +60,22 @@ def finalize(directory: Path, scenario: Scenario, planned: int, started: float,
     return RunResult(directory, completed, planned, interrupted, summary)
 
 
-def check_runnable(scenario: Scenario) -> None:
-    """Raise ``ScenarioError`` if the scenario's domain cannot be run yet."""
-    missing = get_domain(scenario.domain.name).missing
-    if missing:
-        raise ScenarioError(f"domain.name: {scenario.domain.name!r} cannot be run yet: {missing}")
-
-
 def run_scenario(
     scenario: Scenario,
     directory: Path,
     overwrite: bool = False,
     on_step: StepCallback | None = None,
     on_replicate: Callable[[int], None] | None = None,
+    demo_sources: dict[int, DemoSource] | None = None,
 ) -> RunResult:
     """Run all replicates in order; on Ctrl-C keep and summarize the finished ones, then re-raise.
 
+    ``demo_sources`` maps replicates to saved demos that replace the live expert.
+
     Raises:
-        ScenarioError: the scenario's domain cannot be run yet (before any work starts).
         OutputError: ``directory`` cannot be used (before any work starts).
         KeyboardInterrupt: after the finished replicates are on disk and summarized.
     """
-    check_runnable(scenario)
     prepare_output(directory, overwrite)
     atomic_write_text(directory / "config.toml", scenario.to_toml())
     started = time.perf_counter()
@@ -90,7 +83,8 @@ def run_scenario(
         for replicate in range(scenario.replicates):
             # The engine's matrices are small: BLAS threads only add overhead.
             with threadpool_limits(limits=1):
-                rows = run_replicate(scenario, replicate, on_step)
+                rows = run_replicate(scenario, replicate, on_step,
+                                     (demo_sources or {}).get(replicate))
             write_replicate(directory, replicate, rows)
             if on_replicate is not None:
                 on_replicate(replicate)

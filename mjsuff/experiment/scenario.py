@@ -59,6 +59,12 @@ class RuleSettings(_Strict):
     patience: list[Patience] = [1, 2, 3, 4, 5]
     validation_intervals: list[Interval] = [3, 4, 5, 6, 7]
     validation_min_held_out: int = Field(3, ge=1, description="held-out demos before it may stop")
+    unchanged_tolerance: float = Field(
+        0.05, gt=0.0, description="MuJoCo scenes: π_MAP counts as unchanged (patience) when its "
+        "trajectory features from every evaluation start moved by at most this (feature units)")
+    match_tolerance: float = Field(
+        0.1, gt=0.0, description="MuJoCo scenes: π_MAP matches a held-out demo (validation set) "
+        "when its trajectory features from the demo's start are within this of the demo's")
 
 
 class Scenario(_Strict):

@@ -25,6 +25,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from mjsuff.scenes.planner_config import PlannerConfig
+from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene, load_model
 from mjsuff.scenes.simulate import Rollouts
 from mjsuff.scenes.spline import ControlSpline
@@ -43,6 +44,7 @@ class LanderParams(BaseModel):
     eval_starts: int = Field(16, ge=1, le=256, description="fixed evaluation starts")
     horizon: float = Field(4.0, gt=0.5, le=20.0, description="trajectory length (s)")
     knots: int = Field(5, ge=2, le=20, description="control knots per actuator")
+    planning: PlanningSettings = Field(PlanningSettings(), description="planning budgets")
 
 
 class Lander(Scene):

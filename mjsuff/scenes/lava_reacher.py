@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene, load_model
 from mjsuff.scenes.simulate import Rollouts
 from mjsuff.scenes.spline import ControlSpline
@@ -40,6 +41,7 @@ class LavaReacherParams(BaseModel):
     horizon: float = Field(1.5, gt=0.2, le=10.0, description="trajectory length (s)")
     knots: int = Field(5, ge=2, le=20, description="control knots per joint")
     start_noise: float = Field(0.35, ge=0.0, le=1.5, description="start joint noise (rad)")
+    planning: PlanningSettings = Field(PlanningSettings(), description="planning budgets")
 
 
 def fingertip_xy(qpos: np.ndarray) -> np.ndarray:

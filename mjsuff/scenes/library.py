@@ -2,7 +2,8 @@
 
 Rollouts are reward-agnostic: once a trajectory's features are known it can be scored under any
 number of reward vectors with one matrix product. The library's best trajectory under ``w`` is a
-lower bound on ``V*_w`` from that start.
+lower bound on ``V*_w`` from that start. Demonstrations join as *feature-only* entries: they are
+feasible trajectories (so they raise the lower bound) but have no spline knots to warm-start from.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ class TrajectoryLibrary:
         self._features: list[list[np.ndarray]] = [[] for _ in range(num_starts)]
         self._knots: list[list[np.ndarray]] = [[] for _ in range(num_starts)]
         self._packed: list[tuple[np.ndarray, np.ndarray] | None] = [None] * num_starts
+        self._extra: list[np.ndarray] = [np.empty((0, num_features)) for _ in range(num_starts)]
 
     def __len__(self) -> int:
         return sum(self.size(s) for s in range(len(self._features)))
@@ -34,6 +36,12 @@ class TrajectoryLibrary:
             self._knots[start].append(knots[ok])
             self._packed[start] = None
 
+    def add_features(self, start: int, features: np.ndarray) -> None:
+        """Keep feature-only entries ``(B, k)`` (e.g. demonstrations, which have no knots)."""
+        features = np.atleast_2d(np.asarray(features, dtype=float))
+        ok = np.isfinite(features).all(axis=1)
+        self._extra[start] = np.concatenate([self._extra[start], features[ok]])
+
     def arrays(self, start: int) -> tuple[np.ndarray, np.ndarray]:
         """All features ``(n, k)`` and knots ``(n, K, nu)`` from ``start``."""
         if self._packed[start] is None:
@@ -45,8 +53,15 @@ class TrajectoryLibrary:
             self._packed[start] = (features, knots)
         return self._packed[start]
 
+    def best_value(self, start: int, weights: np.ndarray) -> np.ndarray:
+        """Best value ``(N,)`` over every entry from ``start``, feature-only ones included."""
+        value = self.best(start, weights)[0]
+        if len(self._extra[start]):
+            value = np.maximum(value, (weights @ self._extra[start].T).max(axis=1))
+        return value
+
     def best(self, start: int, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Best value ``(N,)`` and index ``(N,)`` in the library for weights ``(N, k)``."""
+        """Best value ``(N,)`` and index ``(N,)`` among the entries with knots, for weights ``(N, k)``."""
         features, _ = self.arrays(start)
         if not len(features):
             n = len(weights)

@@ -1,0 +1,35 @@
+"""How a scene instance plans: the budgets of π_MAP, of ``V*`` refinement and of ground truth.
+
+A scenario sets them under ``[domain.params.planning]``; they trade run time against how close
+π_MAP and ``V*`` come to the true optimum (see benchmarks/sufficiency_check.py for the cost).
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from mjsuff.scenes.planner_config import PlannerConfig
+
+
+class PlanningSettings(BaseModel):
+    """Planning budgets of a scene domain (``population × iterations`` rollouts per problem)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
+
+    planner: PlannerConfig | None = Field(
+        None, description="π for a reward vector (π_MAP); unset = the scene's tested default")
+    refine: PlannerConfig = Field(
+        PlannerConfig(population=32, elites=4, iterations=10, initial_std=0.1),
+        description="one warm-started refinement of V* for a group of reward vectors")
+    refine_groups: int = Field(16, ge=0, description="most weight groups refined per start and round")
+    refine_rounds: int = Field(2, ge=0, description="refinement rounds per V* call")
+    revisit_cosine: float = Field(
+        0.999, gt=0.0, le=1.0,
+        description="a group within this cosine of a direction already refined from the same "
+                    "start is not refined again")
+    seed_directions: int = Field(
+        8, ge=0, description="all-negative reward directions planned from every start up front")
+    seed_planner: PlannerConfig = Field(
+        PlannerConfig(population=32, elites=4, iterations=16), description="budget of those plans")
+    truth_scale: float = Field(4.0, ge=1.0, description="ground truth plans w* with this × the "
+                                                        "planner's population")

@@ -1,0 +1,77 @@
+"""`mjsuff run` on the MuJoCo scenes end to end (issue #5), and saved demo sets served to it (#4).
+
+Tiny budgets (3 evaluation starts, 3 demos, short plans) so each run takes seconds; what is
+checked is the pipeline, not the figures (those are in the README's measured run).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mjsuff.cli import main
+
+SCENARIOS = Path(__file__).parent.parent / "scenarios"
+TINY = ["--replicates", "1", "--quiet",
+        "--set", "domain.params.eval_starts=3", "--set", "demos.max_demos=3",
+        "--set", "posterior.num_samples=100",
+        "--set", "domain.params.planning.planner.iterations=4",
+        "--set", "domain.params.planning.refine_rounds=0",
+        "--set", "domain.params.planning.seed_directions=1",
+        "--set", "domain.params.planning.truth_scale=1.0",
+        "--set", "rules.validation_intervals=[2]", "--set", "rules.patience=[1]"]
+
+
+def run(name, out, *extra):
+    code = main(["run", str(SCENARIOS / f"{name}.toml"), "--out", str(out), *TINY, *extra])
+    return code, (pd.read_parquet(out / "steps.parquet") if code == 0 else None)
+
+
+@pytest.mark.parametrize("name", ["lava_reacher", "lander"])
+def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
+    code, steps = run(name, tmp_path / "a")
+    assert code == 0
+    assert sorted(steps["step"].unique()) == [1, 2, 3]
+    assert set(steps["rule"]) == {"nevd", "piob", "patience", "validation"}
+    nevd = steps[steps["rule"] == "nevd"]
+    assert np.isfinite(nevd["bound"]).all() and (nevd["bound"] >= 0).all()
+    assert (steps["true_nevd"] >= 0).all() and (steps["true_nevd"] <= 1.5).all()
+    assert steps["policy_optimality"].between(0, 1).all()
+    # Same seed, same results: MuJoCo rollouts, experts and samplers are all seeded.
+    code, again = run(name, tmp_path / "b")
+    assert code == 0
+    pd.testing.assert_frame_equal(steps, again)
+
+
+def test_saved_demo_set_reproduces_the_live_run(tmp_path):
+    name = "lava_reacher"
+    demos = tmp_path / "d.npz"
+    sets = ["--set", "domain.params.eval_starts=3"]
+    assert main(["demos", str(SCENARIOS / f"{name}.toml"), "--count", "3", "--out", str(demos),
+                 "--quiet", *sets]) == 0
+    code, live = run(name, tmp_path / "live")
+    assert code == 0
+    code, served = run(name, tmp_path / "served", "--demos", str(demos))
+    assert code == 0
+    pd.testing.assert_frame_equal(live, served)
+
+
+def test_demo_set_of_another_instance_or_replicate_is_refused(tmp_path, capsys):
+    name = "lava_reacher"
+    demos = tmp_path / "d.npz"
+    assert main(["demos", str(SCENARIOS / f"{name}.toml"), "--count", "1", "--out", str(demos),
+                 "--quiet", "--set", "domain.params.eval_starts=3", "--seed", "5"]) == 0
+    capsys.readouterr()
+    code, _ = run(name, tmp_path / "o", "--demos", str(demos))
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert "d.npz: field 'meta.seed': expected 0, got 5" in err
+    assert not (tmp_path / "o").exists()
+    other = tmp_path / "r3.npz"
+    assert main(["demos", str(SCENARIOS / f"{name}.toml"), "--count", "1", "--out", str(other),
+                 "--quiet", "--set", "domain.params.eval_starts=3", "--replicate", "3"]) == 0
+    capsys.readouterr()
+    code, _ = run(name, tmp_path / "o", "--demos", str(other))
+    err = capsys.readouterr().err
+    assert code == 2 and "field 'meta.replicate': expected a replicate in 0..0, got 3" in err
