@@ -1,0 +1,87 @@
+"""Benchmark: one sufficiency check on each MuJoCo scene (issue #5).
+
+One check = the posterior from 10 demos (MCMC, 500 samples), π_MAP (planned from every
+evaluation start), ``V*`` of every sample from the library with refinement, nEVD and the α-VaR
+bound, with 16 evaluation starts and the scenario file's planning budgets. Printed: the total and
+the share spent building the demos' candidate sets (simulating the perturbed demos), sampling,
+planning π_MAP and ``V*``; then a second check after an 11th demo (the loop's warm state, where
+``V*`` refinement skips directions already refined). Building the instance and the expert's demos
+are timed apart (they are not part of a check).
+
+    python benchmarks/scene_check.py [--scenes lava_reacher lander] [--starts 16]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from mjsuff.bounds import normalized_evd, policy_values, upper_var_bound
+from mjsuff.experiment.replicate import make_instance
+from mjsuff.experiment.scenario import load_scenario
+from mjsuff.posterior import sample_posterior
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+NUM_DEMOS = 10
+
+
+def check(domain, demos, scenario, rng) -> dict[str, float]:
+    beta, suff = scenario.demos.beta, scenario.sufficiency
+    t = {}
+    t0 = time.perf_counter()
+    for demo in demos:
+        domain.candidate_features(demo)
+    t["candidates"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    post = sample_posterior(lambda w: domain.log_likelihood(w, demos, beta), domain.num_features,
+                            scenario.posterior, rng)
+    t["sampling"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    policy = domain.plan(post.map_weights)
+    mu = domain.start_feature_expectations(policy)
+    t["planning"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    v_opt = domain.optimal_start_values(post.samples) @ domain.start_weights
+    t["V*"] = time.perf_counter() - t0
+    sw, w = domain.start_weights, post.samples
+    nevd = normalized_evd(v_opt, policy_values(w, mu, sw),
+                          policy_values(w, domain.random_start_feature_expectations(), sw))
+    t["bound"] = upper_var_bound(nevd, suff.alpha, suff.delta)
+    return t
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
+    parser.add_argument("--starts", type=int, default=16)
+    args = parser.parse_args()
+    for name in args.scenes:
+        scenario = load_scenario(SCENARIOS / f"{name}.toml",
+                                 [f"domain.params.eval_starts={args.starts}"])
+        with threadpool_limits(limits=1):
+            t0 = time.perf_counter()
+            domain = make_instance(scenario, 0)
+            build = time.perf_counter() - t0
+            rng = np.random.default_rng(1)
+            t0 = time.perf_counter()
+            demos = [domain.demonstrate(s % args.starts, rng) for s in range(NUM_DEMOS + 1)]
+            demo_time = time.perf_counter() - t0
+            first = check(domain, demos[:NUM_DEMOS], scenario, np.random.default_rng(2))
+            second = check(domain, demos, scenario, np.random.default_rng(3))
+        print(f"\n{name}: {args.starts} evaluation starts, {NUM_DEMOS} demos, "
+              f"{scenario.posterior.num_samples} samples")
+        print(f"  instance {build:.1f} s (random trajectories and seed plans); "
+              f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)")
+        for label, t in (("first check", first), ("warm check (11th demo)", second)):
+            parts = {k: v for k, v in t.items() if k != "bound"}
+            total = sum(parts.values())
+            shares = ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in parts.items())
+            print(f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}")
+
+
+if __name__ == "__main__":
+    main()
