@@ -89,13 +89,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         state["replicate"] = replicate + 1
         progress.update(task, completed=replicate + 1)
 
-    sources = None
+    sources, bad_input = None, ()
     if args.demos:
         from mjsuff.experts.demo_set import DemoFileError
         from mjsuff.experts.recorded import load_recorded_demos  # mink only when asked for
 
         try:
             sources = load_recorded_demos(args.demos, scenario)
+            bad_input = (DemoFileError,)
         except (DemoFileError, ValueError) as exc:
             err.print(f"[red]error:[/] --demos: {exc}", highlight=False, soft_wrap=True)
             return EXIT_USAGE
@@ -105,6 +106,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                                   sources)
     except OutputError as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    except bad_input as exc:  # found mid-run: a demo set without the demo asked for
+        err.print(f"[red]error:[/] {exc} (finished replicates are saved in {directory})",
+                  highlight=False, soft_wrap=True)
         return EXIT_USAGE
     except KeyboardInterrupt:
         err.print(f"interrupted: finished replicates are saved in {directory} "

@@ -75,3 +75,15 @@ def test_demo_set_of_another_instance_or_replicate_is_refused(tmp_path, capsys):
     code, _ = run(name, tmp_path / "o", "--demos", str(other))
     err = capsys.readouterr().err
     assert code == 2 and "field 'meta.replicate': expected a replicate in 0..0, got 3" in err
+
+
+def test_demo_set_that_runs_out_is_a_clear_error(tmp_path, capsys):
+    demos = tmp_path / "short.npz"
+    assert main(["demos", str(SCENARIOS / "lava_reacher.toml"), "--count", "1", "--out",
+                 str(demos), "--quiet", "--set", "domain.params.eval_starts=3"]) == 0
+    capsys.readouterr()
+    code, _ = run("lava_reacher", tmp_path / "o", "--demos", str(demos))
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert "short.npz: no unused demo from start" in err
+    assert (tmp_path / "o" / "summary.json").exists()  # the run is summarized, not half-written

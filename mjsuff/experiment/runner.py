@@ -75,6 +75,7 @@ def run_scenario(
     Raises:
         OutputError: ``directory`` cannot be used (before any work starts).
         KeyboardInterrupt: after the finished replicates are on disk and summarized.
+        Any other error mid-run (e.g. ``DemoFileError``) likewise goes up after that.
     """
     prepare_output(directory, overwrite)
     atomic_write_text(directory / "config.toml", scenario.to_toml())
@@ -88,7 +89,9 @@ def run_scenario(
             write_replicate(directory, replicate, rows)
             if on_replicate is not None:
                 on_replicate(replicate)
-    except KeyboardInterrupt:
+    except BaseException:
+        # Ctrl-C, or anything failing mid-run (e.g. a saved demo set without the demo asked
+        # for): the finished replicates are summarized before the error goes up.
         finalize(directory, scenario, scenario.replicates, started, interrupted=True)
         raise
     return finalize(directory, scenario, scenario.replicates, started, interrupted=False)
