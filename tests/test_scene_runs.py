@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from mjsuff.cli import main
+from mjsuff.scenes.domain import SceneDomain
 
 SCENARIOS = Path(__file__).parent.parent / "scenarios"
 TINY = ["--replicates", "1", "--quiet",
@@ -44,7 +45,7 @@ def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
     pd.testing.assert_frame_equal(steps, again)
 
 
-def test_saved_demo_set_reproduces_the_live_run(tmp_path):
+def test_saved_demo_set_reproduces_the_live_run(tmp_path, monkeypatch):
     name = "lava_reacher"
     demos = tmp_path / "d.npz"
     sets = ["--set", "domain.params.eval_starts=3"]
@@ -52,6 +53,8 @@ def test_saved_demo_set_reproduces_the_live_run(tmp_path):
                  "--quiet", *sets]) == 0
     code, live = run(name, tmp_path / "live")
     assert code == 0
+    # The served run must not ask the live expert at all.
+    monkeypatch.setattr(SceneDomain, "demonstrate", lambda *a, **k: pytest.fail("expert asked"))
     code, served = run(name, tmp_path / "served", "--demos", str(demos))
     assert code == 0
     pd.testing.assert_frame_equal(live, served)
@@ -77,13 +80,20 @@ def test_demo_set_of_another_instance_or_replicate_is_refused(tmp_path, capsys):
     assert code == 2 and "field 'meta.replicate': expected a replicate in 0..0, got 3" in err
 
 
-def test_demo_set_that_runs_out_is_a_clear_error(tmp_path, capsys):
+def test_demo_set_that_is_short_or_made_otherwise_is_refused_before_work(tmp_path, capsys):
     demos = tmp_path / "short.npz"
     assert main(["demos", str(SCENARIOS / "lava_reacher.toml"), "--count", "1", "--out",
                  str(demos), "--quiet", "--set", "domain.params.eval_starts=3"]) == 0
-    capsys.readouterr()
-    code, _ = run("lava_reacher", tmp_path / "o", "--demos", str(demos))
-    err = capsys.readouterr().err.strip()
-    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
-    assert "short.npz: no unused demo from start" in err
-    assert (tmp_path / "o" / "summary.json").exists()  # the run is summarized, not half-written
+    cases = {
+        (): "the run asks for 3 demos in passive order but the file has none left from start",
+        ("--set", "domain.params.horizon=1.0"): "field 'meta.scene_params'",
+        ("--set", "expert.rationality=2.0"): "field 'meta.expert'",
+        ("--set", 'demos.selection="active"'): "saved demos follow the passive order",
+    }
+    for extra, message in cases.items():
+        capsys.readouterr()
+        code, _ = run("lava_reacher", tmp_path / "o", "--demos", str(demos), *extra)
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+        assert "short.npz" in err and message in err, err
+        assert not (tmp_path / "o").exists()

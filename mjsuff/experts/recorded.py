@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from mjsuff.domain import Demo
+from mjsuff.experiment.replicate import seed_sequence
 from mjsuff.experiment.scenario import Scenario
+from mjsuff.experiment.selection import passive_order
 from mjsuff.experts.demo_set import DemoFileError, DemoSet, load_demo_set
 from mjsuff.experts.generate import instance_meta, scene_instance
 
@@ -41,25 +43,58 @@ class RecordedDemos:
                             f"{len(self.demo_set)} demos; generate more with mjsuff demos --count)")
 
 
+def _demo_settings(params: dict, expert: dict, noise: float) -> dict:
+    """What shapes the demos besides the instance (planning budgets do not)."""
+    return {"scene_params": {k: v for k, v in params.items() if k != "planning"},
+            "expert": expert, "noise_fraction": noise}
+
+
 def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int, RecordedDemos]:
     """Read and check demo-set files for ``scenario``: replicate -> its demos.
 
-    Each file must come from this scenario's scene, seed and instance of the replicate it names.
+    Each file must come from this scenario's scene, seed and instance of the replicate it names,
+    with the same scene parameters (horizon, knots, ...), expert settings and noise fraction, and
+    hold a demo for every start the (passive) run will ask for.
 
     Raises:
-        DemoFileError: A file is unreadable or of another scene, seed or instance, names a
-            replicate the scenario does not run, or two files name the same replicate.
+        DemoFileError: Any of that fails, two files name the same replicate, or the scenario
+            selects demos actively (a saved set can only follow the passive order).
     """
+    if paths and scenario.demos.selection != "passive":
+        raise DemoFileError(f"{paths[0]}: saved demos follow the passive order; the scenario has "
+                            f"demos.selection = {scenario.demos.selection!r}")
+    wanted = _demo_settings(scenario.domain_params().model_dump(mode="json"),
+                            scenario.expert.model_dump(mode="json"), scenario.demos.noise_fraction)
     served: dict[int, RecordedDemos] = {}
     for path in paths:
-        replicate = load_demo_set(path).meta.get("replicate")
-        if not isinstance(replicate, int) or not 0 <= replicate < scenario.replicates:
+        demo_set = load_demo_set(path)
+        replicate = demo_set.meta.get("replicate")
+        if type(replicate) is not int or not 0 <= replicate < scenario.replicates:
             raise DemoFileError(f"{path}: field 'meta.replicate': expected a replicate in "
                                 f"0..{scenario.replicates - 1}, got {replicate!r}")
         if replicate in served:
             raise DemoFileError(f"{path}: replicate {replicate} already has demos from "
                                 f"{served[replicate].path}")
         scene, _ = scene_instance(scenario, replicate)
-        demo_set = load_demo_set(path, expect=instance_meta(scenario, replicate, scene))
+        meta = demo_set.meta
+        checks = {**instance_meta(scenario, replicate, scene), **wanted}
+        got = {**meta, **_demo_settings(meta.get("scene_params") or {}, meta.get("expert"),
+                                        meta.get("noise_fraction"))}
+        for key, value in checks.items():
+            if got.get(key) != value:
+                raise DemoFileError(f"{path}: field 'meta.{key}': expected {value!r}, got "
+                                    f"{got.get(key)!r} (demos of another scene, instance or "
+                                    "settings)")
+        pool = len(scene.starts)
+        order = passive_order(pool, np.random.default_rng(
+            seed_sequence(scenario, replicate, "selection")))
+        needed = np.bincount(order[: min(scenario.demos.max_demos or pool, pool)], minlength=pool)
+        have = np.bincount(demo_set.arrays["start_index"], minlength=pool)[:pool]
+        short = np.flatnonzero(have < needed)
+        if short.size:
+            raise DemoFileError(f"{path}: the run asks for {int(needed.sum())} demos in passive "
+                                f"order but the file has none left from start {int(short[0])} "
+                                f"({len(demo_set)} demos); generate them with mjsuff demos "
+                                f"--count {int(needed.sum())}")
         served[replicate] = RecordedDemos(demo_set, path)
     return served

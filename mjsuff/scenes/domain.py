@@ -6,7 +6,8 @@ expectations are the features of those simulated trajectories (the simulation is
 Likelihood (DESIGN, trajectory-level Bayesian IRL). Demo ``j`` from start ``s_j`` with features
 ``φ_j`` has ``P(φ_j | w) = exp(β w·φ_j) / Σ_{τ ∈ C_j} exp(β w·φ(τ))`` over a candidate set ``C_j``
 fixed when the demo is first seen: the demo itself; the library's best trajectory from ``s_j`` for
-each of a fixed spread of reward directions over the whole sphere (planner optima); uniform-random
+each of a fixed spread of reward directions over the whole sphere (library optima: plans,
+refinements, or random trajectories); uniform-random
 trajectories from ``s_j``; and the demo's own controls under smooth perturbations of a few sizes,
 simulated. The perturbations matter: the planner's control splines cannot express everything a
 demonstrator does, so against planner trajectories alone the likelihood would favour whatever
@@ -24,6 +25,7 @@ so it never drops below it. Ground truth plans ``w*`` with a larger budget.
 
 from __future__ import annotations
 
+import copy
 import zlib
 from typing import TYPE_CHECKING
 
@@ -63,7 +65,7 @@ class SceneDomain(Domain):
             in ``optimal_start_values``, the most weight groups refined per start and round, the
             rounds per call (groups are formed anew each round), and the cosine within which a
             direction already refined from a start is not refined again (its optimum is in the
-            library already); the reward directions (spread over the all-negative orthant)
+            library already); random all-negative reward directions
             planned from every start when the instance is built, so the library holds each
             mode's optimum, and their budget; the ground-truth budget.
         expert: The kinesthetic demonstrator (``mjsuff.experts``); without one, ``demonstrate``
@@ -104,6 +106,10 @@ class SceneDomain(Domain):
         for i in range(s):
             self.library.add(i, feats[i], knots.reshape(s, RANDOM_TRAJECTORIES, *scene.spline.shape)[i])
         self._random_features = feats
+        dead = np.flatnonzero(~np.isfinite(feats).all(axis=2).any(axis=1))
+        if dead.size:
+            raise RuntimeError(f"every random rollout from evaluation start {int(dead[0])} "
+                               "diverged; the scene or its control range is broken")
         self._random_mu = np.nanmean(feats, axis=1)
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
         if planning.seed_directions:
@@ -118,6 +124,8 @@ class SceneDomain(Domain):
         self._candidates: dict[bytes, np.ndarray] = {}
         self._features: dict[bytes, np.ndarray] = {}
         self._truth: np.ndarray | None = None
+        # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
+        self._truth_seed = int(rng.integers(2**63))
 
     def configure(self, scenario: Scenario) -> None:
         """Take the scenario's expert settings and trajectory tolerances (``[expert]``, ``[rules]``)."""
@@ -136,8 +144,11 @@ class SceneDomain(Domain):
     def _plan(self, planner: CEMPlanner, w: np.ndarray) -> np.ndarray:
         starts = np.arange(len(self.scene.starts))
         weights = np.broadcast_to(np.asarray(w, dtype=float), (len(starts), self.num_features))
-        warm = np.stack([self.library.arrays(s)[1][self.library.best(s, weights[:1])[1][0]]
-                         for s in starts])
+        best = [self.library.best(s, weights[:1])[1][0] for s in starts]
+        if min(best) < 0:
+            raise RuntimeError(f"no valid trajectory from evaluation start {best.index(-1)} "
+                               "to warm-start from (every rollout diverged)")
+        warm = np.stack([self.library.arrays(s)[1][j] for s, j in zip(starts, best, strict=True)])
         return planner.plan(starts, weights, self.rng, warm_knots=warm).knots
 
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
@@ -155,7 +166,7 @@ class SceneDomain(Domain):
             for start in range(s):
                 _, best = self.library.best(start, weights)
                 index, counts = np.unique(best, return_counts=True)
-                for j in index[np.argsort(-counts)][: self.planning.refine_groups]:
+                for j in index[np.argsort(-counts, kind="stable")][: self.planning.refine_groups]:
                     direction = normalize(weights[best == j].mean(axis=0))
                     done = self._refined[start]
                     if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
@@ -174,12 +185,31 @@ class SceneDomain(Domain):
         return out
 
     def true_optimal_start_values(self) -> np.ndarray:
-        """``V*_{w*}(s)`` per evaluation start ``(S,)``: ``w*`` planned with ``truth_scale`` times
-        the planner's budget (warm-started from the library), then refined; computed once."""
+        """``V*_{w*}(s)`` per evaluation start ``(S,)``, computed once.
+
+        On a *copy* of the library, with randomness of its own (nothing of ``w*`` reaches the
+        learner's library, warm starts or refinement record): ``w*`` planned from every start
+        with ``truth_scale`` times the planner's population and refined, and, when there is an
+        expert, its best demo from every start (it can beat the planner's splines). The
+        library maximum under ``w*`` then.
+        """
         if self._truth is None:
-            self._plan(CEMPlanner(self.scene, self.planner.config.scaled(self.planning.truth_scale),
-                                  self.library), self.true_weights)
-            self._truth = self.optimal_start_values(self.true_weights[None])[0]
+            rng = np.random.default_rng(self._truth_seed)
+            library = copy.deepcopy(self.library)
+            starts = np.arange(len(self.scene.starts))
+            w = np.tile(self.true_weights, (len(starts), 1))
+            warm = np.stack([library.arrays(s)[1][library.best(s, w[:1])[1][0]] for s in starts])
+            plans = CEMPlanner(self.scene, self.planner.config.scaled(self.planning.truth_scale),
+                               library).plan(starts, w, rng, warm_knots=warm)
+            CEMPlanner(self.scene, self.planning.refine, library).plan(
+                starts, w, rng, warm_knots=plans.knots)
+            if self.expert is not None:
+                best = type(self.expert)(self.scene, self.expert.settings.model_copy(
+                    update={"rationality": None}))
+                for s in starts:
+                    demo = best.demonstrate(self.scene.starts[s], self.true_weights, rng)
+                    library.add_features(int(s), demo.features)
+            self._truth = np.array([library.best_value(int(s), w[:1])[0] for s in starts])
         return self._truth
 
     def random_start_feature_expectations(self) -> np.ndarray:

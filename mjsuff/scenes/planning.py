@@ -1,7 +1,7 @@
 """How a scene instance plans: the budgets of π_MAP, of ``V*`` refinement and of ground truth.
 
 A scenario sets them under ``[domain.params.planning]``; they trade run time against how close
-π_MAP and ``V*`` come to the true optimum (see benchmarks/sufficiency_check.py for the cost).
+π_MAP and ``V*`` come to the true optimum (see benchmarks/scene_check.py for the cost).
 """
 
 from __future__ import annotations
