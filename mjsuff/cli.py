@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import shutil
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -103,7 +106,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         with progress:
             result = run_scenario(scenario, directory, args.overwrite, on_step, on_replicate,
-                                  sources)
+                                  sources, record=not args.no_record)
     except OutputError as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
@@ -117,7 +120,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     if not args.quiet:
         out.print(summary_table(result, scenario.rules.nevd_thresholds))
-    out.print(f"results: {directory}/steps.parquet, summary.json, config.toml", highlight=False)
+    recorded = "" if args.no_record else ", recording.rrd (mjsuff view DIR)"
+    out.print(f"results: {directory}/steps.parquet, summary.json, config.toml{recorded}",
+              highlight=False)
     return 0
 
 
@@ -197,6 +202,47 @@ def cmd_demos(args: argparse.Namespace) -> int:
     return 0
 
 
+def has_display() -> bool:
+    """Whether a native viewer window can open here."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    path = Path(args.path)
+    if path.is_dir():
+        path = path / "recording.rrd"
+    if not path.is_file():
+        err.print(f"[red]error:[/] {path}: no recording (runs write DIR/recording.rrd unless "
+                  "--no-record)", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    rerun = shutil.which("rerun")
+    command = [rerun] if rerun else [sys.executable, "-m", "rerun"]
+    if args.web:
+        command += ["--web-viewer", "--web-viewer-port", str(args.port), str(path)]
+        out.print(f"serving {path} to a browser at http://localhost:{args.port} (Ctrl-C stops)",
+                  highlight=False)
+    elif not has_display():
+        err.print(f"no display here to open {path} on. Either copy it to a machine with one and "
+                  f"run `rerun {path.name}` (pip install rerun-sdk=={_rerun_version()}), or serve "
+                  f"it to a browser from here: mjsuff view {args.path} --web", highlight=False,
+                  soft_wrap=True)
+        return 1
+    else:
+        command.append(str(path))
+    try:
+        return subprocess.call(command)
+    except KeyboardInterrupt:
+        return 0
+
+
+def _rerun_version() -> str:
+    from importlib.metadata import version
+
+    return version("rerun-sdk")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="mjsuff",
@@ -220,6 +266,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--demos", action="append", metavar="FILE",
                      help="a saved demo set (mjsuff demos) for the replicate it names, instead of "
                           "the live expert; repeat for more replicates")
+    run.add_argument("--no-record", action="store_true",
+                     help="do not write the Rerun recording DIR/recording.rrd")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the results in a non-empty --out directory")
     run.add_argument("--quiet", action="store_true", help="no progress bar or summary table")
@@ -240,6 +288,15 @@ def build_parser() -> argparse.ArgumentParser:
     demos.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
     demos.add_argument("--quiet", action="store_true", help="no progress bar or demo table")
     demos.set_defaults(func=cmd_demos)
+
+    view = sub.add_parser("view", help="open a run's Rerun recording in the viewer",
+                          description="Open DIR/recording.rrd (or an .rrd file) in the Rerun "
+                                      "viewer; without a display, says what to run instead.")
+    view.add_argument("path", help="a run directory or an .rrd file")
+    view.add_argument("--web", action="store_true",
+                      help="serve the web viewer instead (works without a display)")
+    view.add_argument("--port", type=int, default=9090, help="web viewer port (with --web)")
+    view.set_defaults(func=cmd_view)
 
     hoeff = sub.add_parser("hoeffding", help="print the paper's Table 1 (Hoeffding-based "
                                              "demo counts)")

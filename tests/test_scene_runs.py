@@ -11,6 +11,8 @@ import pandas as pd
 import pytest
 
 from mjsuff.cli import main
+from mjsuff.experiment.runner import RECORDING
+from mjsuff.recording import Recording
 from mjsuff.scenes.domain import SceneDomain
 
 SCENARIOS = Path(__file__).parent.parent / "scenarios"
@@ -39,6 +41,12 @@ def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
     assert np.isfinite(nevd["bound"]).all() and (nevd["bound"] >= 0).all()
     assert (steps["true_nevd"] >= 0).all() and (steps["true_nevd"] <= 1.5).all()
     assert steps["policy_optimality"].between(0, 1).all()
+    # The run's recording shows the scene, each demo (playable on sim_time) and π_MAP.
+    recording = Recording(tmp_path / "a" / RECORDING)
+    paths = recording.entity_paths()
+    assert {"/r0/scene/pi_map", "/r0/scene/demos/1", "/r0/scene/demos/3"} <= paths
+    assert any(p.startswith("/r0/scene/bodies/") for p in paths)
+    assert {"demo", "sim_time"} <= recording.timelines()
     # Same seed, same results: MuJoCo rollouts, experts and samplers are all seeded.
     code, again = run(name, tmp_path / "b")
     assert code == 0

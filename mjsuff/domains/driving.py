@@ -71,4 +71,5 @@ def make_driving(params: DrivingParams, rng: np.random.Generator) -> TabularDoma
     terminal = np.zeros(n, dtype=bool)
     mdp = TabularMDP(road_transitions(params.rows), features, params.gamma, terminal)
     baseline = rng.integers(len(STEERING), size=n)
-    return TabularDomain(mdp, weights, np.full(n, 1.0 / n), baseline)
+    layout = np.stack(np.divmod(np.arange(n), NUM_COLUMNS), axis=1)
+    return TabularDomain(mdp, weights, np.full(n, 1.0 / n), baseline, layout)

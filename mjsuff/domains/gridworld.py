@@ -59,4 +59,5 @@ def make_gridworld(params: GridworldParams, rng: np.random.Generator) -> Tabular
                      terminal)
     true_weights = np.sort(random_unit_vectors(rng, 1, k)[0])
     baseline = rng.integers(len(MOVES), size=n)
-    return TabularDomain(mdp, true_weights, np.full(n, 1.0 / n), baseline)
+    layout = np.stack(np.divmod(np.arange(n), params.cols), axis=1)
+    return TabularDomain(mdp, true_weights, np.full(n, 1.0 / n), baseline, layout)

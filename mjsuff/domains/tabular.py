@@ -286,7 +286,10 @@ class TabularDomain(Domain):
         true_weights: np.ndarray,
         start_weights: np.ndarray,
         baseline_policy: np.ndarray,
+        layout: np.ndarray | None = None,
     ) -> None:
+        """``layout`` ``(S, 2)``: each state's (row, column) cell when the MDP is a grid (drawn by
+        the recordings); None places the states in one row."""
         if true_weights.shape != (mdp.num_features,):
             raise ValueError(f"true_weights must have shape ({mdp.num_features},)")
         self.mdp = mdp
@@ -295,6 +298,9 @@ class TabularDomain(Domain):
         self.start_weights = start_weights / start_weights.sum()
         self.pool = np.flatnonzero(~mdp.terminal)
         self.baseline_policy = baseline_policy
+        n = mdp.num_states
+        self.layout = (np.stack([np.zeros(n), np.arange(n)], axis=1) if layout is None
+                       else np.asarray(layout, dtype=float))
         self.cache = OptimalPolicyCache(mdp)
         self._true_q = self.cache.solve(self.true_weights[None])[0][0]
         uniform = np.full((mdp.num_states, mdp.num_actions), 1.0 / mdp.num_actions)

@@ -97,13 +97,26 @@ class DemoSource(Protocol):
     def demonstrate(self, start: int, rng: np.random.Generator, poor: bool = False) -> Demo: ...
 
 
+class ReplicateObserver(Protocol):
+    """Watches a replicate (e.g. ``mjsuff.recording.ReplicateRecorder``)."""
+
+    def begin(self, domain: Domain) -> None: ...
+
+    def step(self, step: int, demo: Demo, samples: np.ndarray, nevd: np.ndarray,
+             map_weights: np.ndarray, map_policy: Policy, rows: list[dict[str, Any]]) -> None: ...
+
+
 def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | None = None,
-                  demo_source: DemoSource | None = None) -> list[dict[str, Any]]:
+                  demo_source: DemoSource | None = None,
+                  observer: ReplicateObserver | None = None) -> list[dict[str, Any]]:
     """Run one replicate; returns one row per rule and demo step (see README, steps.parquet).
 
-    ``demo_source`` (e.g. a saved demo set) replaces the domain's expert.
+    ``demo_source`` (e.g. a saved demo set) replaces the domain's expert; ``observer`` sees the
+    instance and every step (the demo, the posterior with each sample's nEVD, π_MAP, the rows).
     """
     domain = make_instance(scenario, replicate)
+    if observer is not None:
+        observer.begin(domain)
     source: DemoSource = demo_source or domain
     rules = build_rules(scenario)
     for rule in rules:
@@ -165,6 +178,7 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
                       if piob_finite.size else -math.inf)
         evidence = Evidence(domain, list(demos), map_policy, nevd_bound, piob_bound,
                             lambda ex: posterior_excluding(ex)[1])
+        first_row = len(rows)
         for rule in rules:
             decision = rule.decide(evidence)
             true_nevd, true_piob, optimality = truth(decision.policy)
@@ -186,6 +200,8 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
                 "acceptance_rate": post.acceptance_rate,
                 "rhat": post.rhat,
             })
+        if observer is not None:
+            observer.step(step, demos[-1], w, nevd, post.map_weights, map_policy, rows[first_row:])
         if on_step is not None:
             on_step(step, max_demos)
         if step < max_demos:

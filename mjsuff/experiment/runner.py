@@ -60,6 +60,10 @@ def finalize(directory: Path, scenario: Scenario, planned: int, started: float,
     return RunResult(directory, completed, planned, interrupted, summary)
 
 
+#: The run's Rerun recording, in its output directory.
+RECORDING = "recording.rrd"
+
+
 def run_scenario(
     scenario: Scenario,
     directory: Path,
@@ -67,10 +71,13 @@ def run_scenario(
     on_step: StepCallback | None = None,
     on_replicate: Callable[[int], None] | None = None,
     demo_sources: dict[int, DemoSource] | None = None,
+    record: bool = True,
 ) -> RunResult:
     """Run all replicates in order; on Ctrl-C keep and summarize the finished ones, then re-raise.
 
-    ``demo_sources`` maps replicates to saved demos that replace the live expert.
+    ``demo_sources`` maps replicates to saved demos that replace the live expert. With ``record``,
+    the run streams a Rerun recording to ``directory/recording.rrd`` (``mjsuff.recording``),
+    completed however the run ends.
 
     Raises:
         OutputError: ``directory`` cannot be used (before any work starts).
@@ -80,12 +87,18 @@ def run_scenario(
     prepare_output(directory, overwrite)
     atomic_write_text(directory / "config.toml", scenario.to_toml())
     started = time.perf_counter()
+    recorder = None
+    if record:
+        from mjsuff.recording.recorder import RunRecorder  # Rerun only when recording
+
+        recorder = RunRecorder(directory / RECORDING, scenario)
     try:
         for replicate in range(scenario.replicates):
             # The engine's matrices are small: BLAS threads only add overhead.
             with threadpool_limits(limits=1):
                 rows = run_replicate(scenario, replicate, on_step,
-                                     (demo_sources or {}).get(replicate))
+                                     (demo_sources or {}).get(replicate),
+                                     recorder.replicate(replicate) if recorder else None)
             write_replicate(directory, replicate, rows)
             if on_replicate is not None:
                 on_replicate(replicate)
@@ -94,4 +107,7 @@ def run_scenario(
         # for): the finished replicates are summarized before the error goes up.
         finalize(directory, scenario, scenario.replicates, started, interrupted=True)
         raise
+    finally:
+        if recorder is not None:
+            recorder.close()
     return finalize(directory, scenario, scenario.replicates, started, interrupted=False)

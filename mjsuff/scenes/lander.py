@@ -51,6 +51,7 @@ class Lander(Scene):
     """One lander instance drawn from ``rng``."""
 
     feature_names = FEATURE_NAMES
+    path_axes = (0, 2)  # the craft moves in the world x-z plane
     # Touchdown makes the landscape rough: a wider, larger population finds the better basin.
     planner_config = PlannerConfig(population=96, elites=8, initial_std=0.5)
 

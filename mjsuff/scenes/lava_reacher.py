@@ -54,6 +54,7 @@ class LavaReacher(Scene):
     """One lava-reacher instance drawn from ``rng``."""
 
     feature_names = FEATURE_NAMES
+    path_axes = (0, 1)  # the fingertip moves in the world x-y plane
 
     def __init__(self, params: LavaReacherParams, rng: np.random.Generator,
                  threads: int | None = None) -> None:

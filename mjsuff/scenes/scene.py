@@ -44,6 +44,8 @@ class Scene(abc.ABC):
     spline: ControlSpline
     starts: np.ndarray
     feature_names: tuple[str, ...]
+    #: The world axes (of x, y, z) that the two coordinates of ``path`` lie along.
+    path_axes: tuple[int, int] = (0, 1)
     #: The planner budget this scene needs (see benchmarks/scenes.py and tests/test_planner.py).
     planner_config: PlannerConfig = PlannerConfig()
 

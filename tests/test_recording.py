@@ -1,0 +1,162 @@
+"""Rerun recordings (issue #6): read back with rerun.chunk.RrdReader and checked against the run."""
+
+import shutil
+import subprocess
+
+import mujoco
+import numpy as np
+import pandas as pd
+import pytest
+import rerun as rr
+
+from mjsuff.experiment.runner import RECORDING, run_scenario
+from mjsuff.recording import Recording, SceneLogger
+from mjsuff.scenes.lander import Lander, LanderParams
+from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
+from tests.conftest import small_scenario
+
+
+@pytest.fixture(scope="module")
+def grid_run(tmp_path_factory):
+    directory = tmp_path_factory.mktemp("run")
+    run_scenario(small_scenario(), directory)
+    return directory, pd.read_parquet(directory / "steps.parquet")
+
+
+def test_recording_has_the_expected_entities_and_timelines(grid_run):
+    directory, steps = grid_run
+    recording = Recording(directory / RECORDING)
+    paths = recording.entity_paths()
+    for r in steps["replicate"].unique():
+        for entity in ("grid/cells", "grid/pi_map", "posterior/samples", "posterior/w_map",
+                       "posterior/w_true", "log", "rules/nevd_0.2/bound",
+                       "rules/nevd_0.2/threshold", "rules/patience_1/true_value"):
+            assert f"/r{r}/{entity}" in paths, entity
+    assert "/run/scenario" in paths
+    assert "demo" in recording.timelines()
+
+
+def test_series_equal_the_values_in_steps_parquet(grid_run):
+    directory, steps = grid_run
+    recording = Recording(directory / RECORDING)
+    for (r, rule, param), rows in steps.groupby(["replicate", "rule", "param"]):
+        rows = rows.sort_values("step")
+        base = f"r{r}/rules/{rule}_{param:g}"
+        table = recording.series(f"{base}/true_value", "Scalars:scalars", "demo")
+        assert table.column("demo").to_pylist() == rows["step"].tolist()
+        np.testing.assert_array_equal([v[0] for v in table.column(1).to_pylist()],
+                                      rows["true_value"].to_numpy())
+        if rule in ("nevd", "piob"):
+            bound = recording.series(f"{base}/bound", "Scalars:scalars", "demo")
+            finite = rows[np.isfinite(rows["bound"])]
+            np.testing.assert_array_equal([v[0] for v in bound.column(1).to_pylist()],
+                                          finite["bound"].to_numpy())
+
+
+def test_posterior_samples_and_marks(grid_run):
+    directory, steps = grid_run
+    recording = Recording(directory / RECORDING)
+    samples = recording.series("r0/posterior/samples", "Points3D:positions", "demo")
+    assert len(samples) == steps[steps.replicate == 0]["step"].nunique()
+    points = np.array(samples.column(1)[0].as_py())
+    assert points.shape == (100, 3) and np.all(np.isfinite(points))
+
+
+@pytest.mark.skipif(shutil.which("rerun") is None, reason="the rerun CLI is not on PATH")
+def test_rerun_verifies_the_file(grid_run):
+    directory, _ = grid_run
+    done = subprocess.run(["rerun", "rrd", "verify", str(directory / RECORDING)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+
+
+def test_no_record_writes_no_recording(tmp_path):
+    run_scenario(small_scenario(replicates=1), tmp_path / "o", record=False)
+    assert not (tmp_path / "o" / RECORDING).exists()
+
+
+@pytest.mark.parametrize("scene_type, params", [(LavaReacher, LavaReacherParams),
+                                                (Lander, LanderParams)])
+def test_geom_poses_in_the_file_equal_mujocos(tmp_path, scene_type, params):
+    scene = scene_type(params(eval_starts=2), np.random.default_rng(0))
+    model = scene.model
+    knots = scene.spline.uniform(np.random.default_rng(1), 1)
+    rollouts, _ = scene.simulate(scene.starts[:1], knots)
+    qpos = rollouts.qpos[0, ::10]
+    times = np.arange(len(qpos)) * 0.1
+    path = tmp_path / "scene.rrd"
+    rec = rr.RecordingStream(application_id="test")
+    rec.save(str(path))
+    logger = SceneLogger(model, rec, "scene")
+    logger.log_geometry()
+    logger.log_motion(qpos, [rr.TimeColumn("sim_time", duration=times)])
+    rec.flush()
+    rec.disconnect()
+
+    recording = Recording(path)
+    frame = len(qpos) // 2
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos[frame]
+    mujoco.mj_kinematics(model, data)
+    checked = 0
+    for g in range(model.ngeom):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or str(g)
+        body = logger.body_paths[model.geom_bodyid[g]]
+        local = f"{body}/geom_{name}"
+        offset = recording.static(local, "Transform3D:translation")
+        if offset is None:
+            continue
+        quat = recording.static(local, "Transform3D:quaternion")[0]
+        if model.geom_bodyid[g] == 0:
+            b_pos, b_rot = np.zeros(3), np.eye(3)
+        else:
+            when = np.timedelta64(round(times[frame] * 1e9), "ns")
+            b_pos = np.array(recording.latest_at(body, "Transform3D:translation", "sim_time",
+                                                 when)[0])
+            bq = recording.latest_at(body, "Transform3D:quaternion", "sim_time", when)[0]
+            b_rot = _rotation(bq)
+        world_pos = b_pos + b_rot @ np.array(offset[0])
+        world_rot = b_rot @ _rotation(quat)
+        np.testing.assert_allclose(world_pos, data.geom_xpos[g], atol=1e-5)
+        np.testing.assert_allclose(world_rot, data.geom_xmat[g].reshape(3, 3), atol=1e-5)
+        checked += 1
+    assert checked == model.ngeom
+
+
+def _rotation(xyzw):
+    """Rotation matrix of an (x, y, z, w) quaternion."""
+    wxyz = np.array([xyzw[3], xyzw[0], xyzw[1], xyzw[2]], dtype=float)
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, wxyz / np.linalg.norm(wxyz))
+    return mat.reshape(3, 3)
+
+
+def test_view_without_display_says_what_to_run(grid_run, monkeypatch, capsys):
+    from mjsuff import cli
+
+    directory, _ = grid_run
+    monkeypatch.setattr(cli, "has_display", lambda: False)
+    monkeypatch.setattr(cli.subprocess, "call", lambda *a, **k: pytest.fail("no viewer here"))
+    assert cli.main(["view", str(directory)]) == 1
+    err = capsys.readouterr().err
+    assert "no display here" in err and "rerun recording.rrd" in err and "--web" in err
+
+
+def test_view_opens_the_viewer_on_the_runs_recording(grid_run, monkeypatch):
+    from mjsuff import cli
+
+    directory, _ = grid_run
+    calls = []
+    monkeypatch.setattr(cli, "has_display", lambda: True)
+    monkeypatch.setattr(cli.subprocess, "call", lambda command: calls.append(command) or 0)
+    assert cli.main(["view", str(directory)]) == 0
+    assert calls[0][-1] == str(directory / RECORDING)
+    assert cli.main(["view", str(directory), "--web", "--port", "9123"]) == 0
+    assert "--web-viewer" in calls[1] and "9123" in calls[1]
+
+
+def test_view_of_a_missing_recording_is_a_clear_error(tmp_path, capsys):
+    from mjsuff import cli
+
+    assert cli.main(["view", str(tmp_path)]) == 2
+    assert "no recording" in capsys.readouterr().err
