@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import rerun as rr
+from rerun.chunk import RrdReader
 
 from mjsuff.experiment.runner import RECORDING, run_scenario
 from mjsuff.recording import Recording, SceneLogger
@@ -34,6 +35,7 @@ def test_recording_has_the_expected_entities_and_timelines(grid_run):
             assert f"/r{r}/{entity}" in paths, entity
     assert "/run/scenario" in paths
     assert "demo" in recording.timelines()
+    assert RrdReader(str(directory / RECORDING)).blueprints()  # opens on the default layout
 
 
 def test_series_equal_the_values_in_steps_parquet(grid_run):

@@ -29,17 +29,32 @@ from mjsuff.recording.views import view_for
 LOW, HIGH = np.array([40, 60, 200]), np.array([250, 220, 40])
 
 
-def blueprint(replicate: int = 0) -> rrb.Blueprint:
-    """The layout a recording opens on: the scene, the posterior, the bounds and the log."""
+def blueprint(scenario: Scenario | None = None, replicate: int = 0,
+              eye: tuple[np.ndarray, np.ndarray] | None = None) -> rrb.Blueprint:
+    """The layout a recording opens on: the scene and the decisions log; the posterior; the
+    bounds against the truth, one tab per rule kind (of ``scenario``'s rules); the scenario.
+    ``eye`` (position, look target) places the scene camera."""
     root = f"/r{replicate}"
+    kinds = ("nevd", "piob", "patience", "validation")
+    params = {"nevd": [], "piob": [], "patience": [], "validation": []}
+    if scenario is not None:
+        rules = scenario.rules
+        params = {"nevd": rules.nevd_thresholds, "piob": rules.piob_thresholds,
+                  "patience": rules.patience, "validation": rules.validation_intervals}
+    series = [rrb.TimeSeriesView(name=f"{kind} rule", origin=f"{root}/rules",
+                                 contents=[f"$origin/{kind}_{p:g}/**" for p in params[kind]]
+                                 or [f"$origin/{kind}_*"])
+              for kind in kinds if params[kind] or scenario is None]
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(rrb.Spatial3DView(name="scene", origin=root,
-                                           contents=[f"{root}/scene/**", f"{root}/grid/**"]),
+            rrb.Vertical(rrb.Spatial3DView(
+                name="scene", origin=root, contents=[f"{root}/scene/**", f"{root}/grid/**"],
+                eye_controls=None if eye is None else rrb.EyeControls3D(
+                    position=eye[0], look_target=eye[1], eye_up=[0, 0, 1])),
                          rrb.TextLogView(name="decisions", origin=f"{root}/log"),
                          row_shares=[3, 1]),
             rrb.Vertical(rrb.Spatial3DView(name="posterior", origin=f"{root}/posterior"),
-                         rrb.TimeSeriesView(name="bounds and truth", origin=f"{root}/rules"),
+                         rrb.Tabs(*series, name="bounds and truth"),
                          rrb.TextDocumentView(name="scenario", origin="/run/scenario")),
             column_shares=[3, 2]),
         collapse_panels=True)
@@ -70,8 +85,11 @@ def rule_path(row: dict[str, Any]) -> str:
 class ReplicateRecorder:
     """Records one replicate (an observer of ``run_replicate``)."""
 
-    def __init__(self, recording: rr.RecordingStream, replicate: int) -> None:
+    def __init__(self, recording: rr.RecordingStream, replicate: int,
+                 scenario: Scenario | None = None) -> None:
         self.recording = recording
+        self.replicate = replicate
+        self.scenario = scenario
         self.root = f"r{replicate}"
         self.view = None
         self.domain: Domain | None = None
@@ -81,6 +99,11 @@ class ReplicateRecorder:
         self.domain = domain
         self.view = view_for(domain, self.recording, self.root)
         self.view.log_instance()
+        eye = self.view.eye()
+        if self.replicate == 0 and eye is not None:
+            # The default layout frames the first replicate's instance.
+            self.recording.send_blueprint(blueprint(self.scenario, 0, eye), make_active=True,
+                                          make_default=True)
         if domain.num_features == 3:
             self.recording.log(f"{self.root}/posterior/unit_sphere",
                                rr.Ellipsoids3D(half_sizes=[[1, 1, 1]], colors=[[180, 180, 180]]),
@@ -110,9 +133,10 @@ class ReplicateRecorder:
             rec.log(f"{path}/true_value", rr.Scalars(row["true_value"]))
             if row["decision"] and rule_path(row) not in self._stopped:
                 self._stopped.add(rule_path(row))
+                bound = f"bound {row['bound']:.3f}, " if np.isfinite(row["bound"]) else ""
                 rec.log(f"{root}/log", rr.TextLog(
-                    f"STOP {row['rule']} {row['param']:g} at demo {step}: bound "
-                    f"{row['bound']:.3f}, true {row['true_value']:.3f}", level="WARN"))
+                    f"STOP {row['rule']} {row['param']:g} at demo {step}: {bound}"
+                    f"true {row['true_value']:.3f}", level="WARN"))
 
 
 class RunRecorder:
@@ -123,15 +147,16 @@ class RunRecorder:
 
     def __init__(self, path: Path, scenario: Scenario) -> None:
         self.path = Path(path)
+        self.scenario = scenario
         self.recording = rr.RecordingStream(application_id="mjsuff",
                                             recording_id=f"{scenario.name}-seed{scenario.seed}")
         self.recording.set_log_time_enabled(False)
-        self.recording.save(str(self.path), default_blueprint=blueprint())
+        self.recording.save(str(self.path), default_blueprint=blueprint(scenario))
         self.recording.log("run/scenario", rr.TextDocument(
             f"```toml\n{scenario.to_toml()}```", media_type=rr.MediaType.MARKDOWN), static=True)
 
     def replicate(self, replicate: int) -> ReplicateRecorder:
-        return ReplicateRecorder(self.recording, replicate)
+        return ReplicateRecorder(self.recording, replicate, self.scenario)
 
     def close(self) -> None:
         self.recording.flush()

@@ -35,6 +35,10 @@ class DomainView:
     def log_step(self, step: int, demo: Demo, policy: Policy) -> None:
         """The demo just shown and the robot's policy after it (timeline ``demo`` = ``step``)."""
 
+    def eye(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where the 3-D view's camera starts: (position, look target), or None for the default."""
+        return None
+
 
 class SceneView(DomainView):
     """MuJoCo scenes: geometry, each demo's executed path and motion, π_MAP's paths."""
@@ -49,6 +53,19 @@ class SceneView(DomainView):
         out = np.zeros((*path.shape[:-1], 3))
         out[..., list(self.scene.path_axes)] = path
         return out
+
+    def eye(self) -> tuple[np.ndarray, np.ndarray]:
+        """Framing the moving bodies and the sites (goal, pad) at the first start, from the side
+        the motion is seen best: above a horizontal path, in front of a vertical one."""
+        pos, _ = self.logger.body_poses(self.scene.starts[:1])
+        data = self.logger._data
+        points = np.concatenate([pos[0, 1:], data.site_xpos])
+        low, high = points.min(axis=0), points.max(axis=0)
+        target = (low + high) / 2
+        radius = max(float(np.linalg.norm(high - low)) / 2, 0.2)
+        normal = ({0, 1, 2} - set(self.scene.path_axes)).pop()
+        direction = np.array([0.0, -0.6, 1.0]) if normal == 2 else np.array([0.0, -1.0, 0.35])
+        return target + 2.2 * radius * direction / np.linalg.norm(direction), target
 
     def log_instance(self) -> None:
         self.logger.log_geometry()
@@ -83,6 +100,12 @@ class TabularView(DomainView):
         self.recording.log(f"{self.root}/grid/cells", rr.Boxes3D(
             centers=self._xy(layout), half_sizes=[[0.48, 0.48, 0.01]] * len(layout),
             colors=colours, fill_mode="solid"), static=True)
+
+    def eye(self) -> tuple[np.ndarray, np.ndarray]:
+        xy = self._xy(self.domain.layout)
+        target = (xy.min(axis=0) + xy.max(axis=0)) / 2
+        size = float(np.ptp(xy, axis=0).max()) + 1
+        return target + size * np.array([0.0, -0.9, 1.1]), target
 
     @staticmethod
     def _xy(layout: np.ndarray) -> np.ndarray:
