@@ -162,3 +162,48 @@ def test_view_of_a_missing_recording_is_a_clear_error(tmp_path, capsys):
 
     assert cli.main(["view", str(tmp_path)]) == 2
     assert "no recording" in capsys.readouterr().err
+
+
+ALL_GEOMS = """
+<mujoco>
+  <asset>
+    <mesh name="tetra" vertex="0 0 0  0.1 0 0  0 0.1 0  0 0 0.1"/>
+  </asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 0.1"/>
+    <body name="thing" pos="0.1 0.2 0.3" euler="0.3 0.2 0.1">
+      <freejoint/>
+      <geom name="box" type="box" size="0.1 0.2 0.05"/>
+      <geom name="ball" type="sphere" size="0.05" pos="0.2 0 0"/>
+      <geom name="pill" type="capsule" fromto="0 0 0 0.2 0.1 0" size="0.02"/>
+      <geom name="can" type="cylinder" size="0.03 0.04" pos="0 0.2 0"/>
+      <geom name="egg" type="ellipsoid" size="0.03 0.04 0.05" pos="0 0 0.2"/>
+      <geom name="tetra" type="mesh" mesh="tetra" pos="0.1 0.1 0.1"/>
+      <site name="tip" pos="0.3 0 0" size="0.01"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_every_geom_type_is_drawn(tmp_path):
+    model = mujoco.MjModel.from_xml_string(ALL_GEOMS)
+    path = tmp_path / "all.rrd"
+    rec = rr.RecordingStream(application_id="test")
+    rec.save(str(path))
+    logger = SceneLogger(model, rec, "s")
+    logger.log_geometry()
+    rec.disconnect()
+    recording = Recording(path)
+    shapes = {"world/geom_floor": "Boxes3D:half_sizes", "thing/geom_box": "Boxes3D:half_sizes",
+              "thing/geom_ball": "Ellipsoids3D:half_sizes", "thing/geom_pill": "Capsules3D:radii",
+              "thing/geom_can": "Cylinders3D:radii", "thing/geom_egg": "Ellipsoids3D:half_sizes",
+              "thing/geom_tetra": "Mesh3D:vertex_positions", "thing/site_tip": "Ellipsoids3D:half_sizes"}
+    for entity, component in shapes.items():
+        assert recording.static(f"s/bodies/{entity}", component) is not None, entity
+    np.testing.assert_allclose(recording.static("s/bodies/thing/geom_box", "Boxes3D:half_sizes"),
+                               [[0.1, 0.2, 0.05]])
+    # The capsule keeps its MuJoCo length (fromto: 0.2 x 0.1) and radius.
+    assert recording.static("s/bodies/thing/geom_pill", "Capsules3D:lengths")[0] == pytest.approx(
+        np.hypot(0.2, 0.1), rel=1e-6)
+    assert len(recording.static("s/bodies/thing/geom_tetra", "Mesh3D:vertex_positions")) == 4
