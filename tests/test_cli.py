@@ -118,10 +118,10 @@ def test_unwritable_out_even_for_root(tmp_path, capsys, monkeypatch, where):
 def test_interrupt_keeps_finished_replicates(tmp_path, monkeypatch):
     real = runner.run_replicate
 
-    def interrupt_second(scenario, replicate, on_step=None, demo_source=None):
+    def interrupt_second(scenario, replicate, *rest):
         if replicate == 1:
             raise KeyboardInterrupt
-        return real(scenario, replicate, on_step, demo_source)
+        return real(scenario, replicate, *rest)
 
     monkeypatch.setattr(runner, "run_replicate", interrupt_second)
     with pytest.raises(KeyboardInterrupt):
