@@ -14,7 +14,8 @@ import pytest
 from mjsuff.cli import main
 from mjsuff.experiment import runner
 from mjsuff.experiment.results import OutputError
-from mjsuff.experiment.runner import run_scenario
+from mjsuff.experiment.runner import RECORDING, run_scenario
+from mjsuff.recording import Recording
 from tests.conftest import small_scenario
 
 SMALL_SETS = ["replicates=2", "demos.max_demos=3", "posterior.num_samples=60",
@@ -131,6 +132,8 @@ def test_interrupt_keeps_finished_replicates(tmp_path, monkeypatch):
     run = json.loads((tmp_path / "r" / "run.json").read_text())
     assert run["interrupted"] and run["completed_replicates"] == 1
     assert json.loads((tmp_path / "r" / "summary.json").read_text())["entries"]
+    # The recording is completed too, and holds the finished replicate.
+    assert "/r0/posterior/samples" in Recording(tmp_path / "r" / RECORDING).entity_paths()
 
 
 def test_sigint_mid_run_leaves_readable_results(tmp_path):
@@ -151,3 +154,7 @@ def test_sigint_mid_run_leaves_readable_results(tmp_path):
     steps = pd.read_parquet(out / "steps.parquet")
     assert 1 <= steps["replicate"].nunique() < 50
     assert not list(out.glob("**/*.tmp"))
+    # Ctrl-C completes the recording: its footer is written, so the store opens.
+    from rerun.chunk import RrdReader
+
+    assert "/r0/posterior/samples" in RrdReader(str(out / RECORDING)).store().schema().entity_paths()
