@@ -26,7 +26,7 @@ from mjsuff.experts.reacher import ReacherExpert
 from mjsuff.scenes.domain import draw_true_weights
 from mjsuff.scenes.lander import Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
-from mjsuff.scenes.planner import CEMPlanner
+from mjsuff.scenes.planner import SamplingPlanner
 
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
           "lander": (Lander, LanderParams, LanderExpert)}
@@ -50,7 +50,7 @@ def bench(name: str, instances: int, starts: int) -> dict:
             errors.append(demo.tracking_error)
             candidates.append(demo.candidates)
             failures.append(demo.ik_failures)
-        planned = CEMPlanner(scene, scene.planner_config).plan(
+        planned = SamplingPlanner(scene, scene.planner_config).plan(
             np.arange(starts), np.tile(w, (starts, 1)), np.random.default_rng(0)).values
         _, feats = scene.simulate(np.repeat(scene.starts, RANDOM, axis=0),
                                   scene.spline.uniform(np.random.default_rng(1), RANDOM * starts))

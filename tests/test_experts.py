@@ -12,7 +12,7 @@ from mjsuff.experts.lander import LanderExpert
 from mjsuff.experts.reacher import ReacherExpert
 from mjsuff.scenes.lander import Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
-from mjsuff.scenes.planner import CEMPlanner
+from mjsuff.scenes.planner import SamplingPlanner
 
 STARTS = 3
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
@@ -39,7 +39,7 @@ def test_demos_are_near_the_planners_optimum(setup):
     name, scene, expert = setup
     w = -unit([0.5, 0.6, 0.4, 0.3][: scene.num_features])
     demos = [expert.demonstrate(scene.starts[s], w, np.random.default_rng(s)) for s in range(STARTS)]
-    planned = CEMPlanner(scene, scene.planner_config).plan(
+    planned = SamplingPlanner(scene, scene.planner_config).plan(
         np.arange(STARTS), np.tile(w, (STARTS, 1)), np.random.default_rng(0)).values
     _, random_features = scene.simulate(np.repeat(scene.starts, 32, axis=0),
                                         scene.spline.uniform(np.random.default_rng(1), 32 * STARTS))

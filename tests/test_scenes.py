@@ -7,7 +7,7 @@ import pytest
 from mjsuff.domains import REGISTRY
 from mjsuff.scenes.lander import REST_HEIGHT, Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams, fingertip_xy
-from mjsuff.scenes.planner import CEMPlanner, PlannerConfig
+from mjsuff.scenes.planner import PlannerConfig, SamplingPlanner
 from mjsuff.scenes.scene import load_model
 
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
@@ -99,7 +99,7 @@ def test_reacher_lava_feature_only_inside_the_lava():
 def plan_features(scene, w, seed=0):
     w = np.asarray(w, dtype=float) / np.linalg.norm(w)
     starts = np.arange(len(scene.starts))
-    plans = CEMPlanner(scene, PlannerConfig(population=48, iterations=16)).plan(
+    plans = SamplingPlanner(scene, PlannerConfig(population=48, iterations=16)).plan(
         starts, np.tile(w, (len(starts), 1)), np.random.default_rng(seed))
     return plans.features
 

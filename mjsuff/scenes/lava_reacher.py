@@ -19,8 +19,9 @@ are drawn uniformly from the all-negative part of the sphere: every feature is a
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from mjsuff.scenes.planner_config import PlannerConfig
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene, load_model
 from mjsuff.scenes.simulate import Rollouts
@@ -43,6 +44,12 @@ class LavaReacherParams(BaseModel):
     start_noise: float = Field(0.35, ge=0.0, le=1.5, description="start joint noise (rad)")
     planning: PlanningSettings = Field(PlanningSettings(), description="planning budgets")
 
+    @model_validator(mode="after")
+    def _scene_defaults(self) -> LavaReacherParams:
+        # Unset budgets become the scene's tested ones, so a resolved scenario says what ran.
+        self.planning = self.planning.resolved(LavaReacher.planner_config, LavaReacher.refine_config)
+        return self
+
 
 def fingertip_xy(qpos: np.ndarray) -> np.ndarray:
     """Planar forward kinematics: fingertip (x, y) for joint angles ``(..., 3)`` (metres)."""
@@ -55,6 +62,10 @@ class LavaReacher(Scene):
 
     feature_names = FEATURE_NAMES
     path_axes = (0, 1)  # the fingertip moves in the world x-y plane
+    # CEM picks the side of the lava, CMA-ES polishes the path (2112 rollouts per problem;
+    # 5x closer to a 10x-budget reference than 2048 rollouts of CEM alone, tests/test_planner.py).
+    planner_config = PlannerConfig(population=64, elites=6, iterations=12,
+                                   cma_population=24, cma_iterations=56, cma_sigma=0.1)
 
     def __init__(self, params: LavaReacherParams, rng: np.random.Generator,
                  threads: int | None = None) -> None:

@@ -18,9 +18,9 @@ class PlanningSettings(BaseModel):
 
     planner: PlannerConfig | None = Field(
         None, description="π for a reward vector (π_MAP); unset = the scene's tested default")
-    refine: PlannerConfig = Field(
-        PlannerConfig(population=32, elites=4, iterations=10, initial_std=0.1),
-        description="one warm-started refinement of V* for a group of reward vectors")
+    refine: PlannerConfig | None = Field(
+        None, description="one warm-started refinement of V* for a group of reward vectors; "
+                          "unset = the scene's tested default")
     refine_groups: int = Field(16, ge=0, description="most weight groups refined per start and round")
     refine_rounds: int = Field(2, ge=0, description="refinement rounds per V* call")
     revisit_cosine: float = Field(
@@ -33,3 +33,8 @@ class PlanningSettings(BaseModel):
         PlannerConfig(population=32, elites=4, iterations=16), description="budget of those plans")
     truth_scale: float = Field(4.0, ge=1.0, description="ground truth plans w* with this × the "
                                                         "planner's population")
+
+    def resolved(self, planner: PlannerConfig, refine: PlannerConfig) -> PlanningSettings:
+        """These settings with a scene's tested ``planner`` and ``refine`` where they are unset."""
+        return self.model_copy(update={"planner": self.planner or planner,
+                                       "refine": self.refine or refine})

@@ -48,6 +48,9 @@ class Scene(abc.ABC):
     path_axes: tuple[int, int] = (0, 1)
     #: The planner budget this scene needs (see benchmarks/scenes.py and tests/test_planner.py).
     planner_config: PlannerConfig = PlannerConfig()
+    #: One warm-started V* refinement for a group of reward vectors (tests/test_planner.py).
+    refine_config: PlannerConfig = PlannerConfig(population=32, elites=4, iterations=10,
+                                                 initial_std=0.1)
 
     def __init__(self, threads: int | None = None) -> None:
         self.simulator = Simulator(self.model, threads)
