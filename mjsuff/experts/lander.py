@@ -10,8 +10,8 @@ The pitch is blended in from the start's own. Every path is thus one the engine 
 mink IK (a frame task on the craft body, position and orientation) turns the pose path into
 references for the x, z and pitch joints, and a thrust controller tracks them: a PD law on
 position gives the desired force, its component along the body axis sets the throttle and its
-direction the pitch target, which a PD attitude loop follows; after touchdown the engine is cut
-and the craft is held level. The controller runs in closed loop (all candidates stepped side by
+direction the pitch set-point of the attitude servo; after touchdown the engine is cut and the
+craft is held level. The controller runs in closed loop (all candidates stepped side by
 side); the executed controls replayed open loop through ``mujoco.rollout`` reproduce the same
 trajectory, and that replay is the demo.
 """
@@ -36,9 +36,9 @@ LOW = np.array([0.2, 0.2, 0.0, 0.0])
 HIGH = np.array([1.0, 0.9, 4.0, 1.0])
 #: Spread of one refinement step at scale 1, per parameter.
 STEP = np.array([0.2, 0.15, 0.5, 0.2])
-#: Position loop gains (1/s², 1/s) and attitude loop gains (1/s², 1/s).
-KP, KD, K_PITCH, D_PITCH = 4.0, 4.0, 40.0, 12.0
-MAX_PITCH = 0.6  # rad
+#: Position loop gains (1/s², 1/s).
+KP, KD = 4.0, 4.0
+MAX_PITCH = 0.6  # rad, within the attitude servo's range
 
 
 class LanderExpert(Expert):
@@ -53,11 +53,8 @@ class LanderExpert(Expert):
         self.tracker = PathTracker(m, "craft", "body", orientation_cost=1.0,
                                    settings=ik or IKSettings(stride=10, iterations=3, tolerance=0.01))
         self.mass = float(m.body_subtreemass[m.body("craft").id])
-        self.inertia = float(m.body_inertia[m.body("craft").id][1])
         self.gravity = -float(m.opt.gravity[2])
         self.max_thrust = float(m.actuator_gainprm[m.actuator("main").id, 0])
-        self.max_torque = float(m.actuator_gear[m.actuator("attitude").id, 0])
-        self.pitch_damping = float(m.dof_damping[m.joint("pitch").dofadr[0]])
         self.horizon = scene.spline.num_steps * m.opt.timestep
         #: Largest upward acceleration the engine gives an upright craft (m/s²).
         self.brake_margin = self.max_thrust / self.mass - self.gravity
@@ -100,21 +97,19 @@ class LanderExpert(Expert):
 
     def control(self, qpos: np.ndarray, qvel: np.ndarray, touched: np.ndarray,
                 q_ref: np.ndarray, v_ref: np.ndarray, a_ref: np.ndarray) -> np.ndarray:
-        """Throttle and attitude commands ``(C, 2)`` for all candidates, from their states and
+        """Throttle and pitch set-points ``(C, 2)`` for all candidates, from their states and
         references ``(C, 3)`` at this step."""
         force = self.mass * (a_ref[:, :2] + KP * (q_ref[:, :2] - qpos[:, :2])
                              + KD * (v_ref[:, :2] - qvel[:, :2]))
         force[:, 1] += self.mass * self.gravity
-        pitch, rate = qpos[:, 2], qvel[:, 2]
+        pitch = qpos[:, 2]
         pitch_target = np.where(force[:, 1] > 0,
                                 np.clip(np.arctan2(force[:, 0], force[:, 1]), -MAX_PITCH, MAX_PITCH),
                                 q_ref[:, 2])
         pitch_target = np.where(touched, 0.0, pitch_target)
         throttle = (force[:, 0] * np.sin(pitch) + force[:, 1] * np.cos(pitch)) / self.max_thrust
         throttle = np.where(touched, 0.0, np.clip(throttle, 0.0, 1.0))
-        torque = (self.inertia * (K_PITCH * (pitch_target - pitch) - D_PITCH * rate)
-                  + self.pitch_damping * rate)
-        return np.column_stack([throttle, np.clip(torque / self.max_torque, -1.0, 1.0)])
+        return np.column_stack([throttle, pitch_target])
 
     def execute(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[ExecutedPaths, list[str]]:
         m, dt = self.scene.model, self.scene.model.opt.timestep
