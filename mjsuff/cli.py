@@ -120,6 +120,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     if not args.quiet:
         out.print(summary_table(result, scenario.rules.nevd_thresholds))
+    if result.simulation["simulated_steps"]:
+        out.print(f"MuJoCo: {result.simulation['simulated_steps']:,} steps simulated; "
+                  f"{result.simulation['diverged_rollouts']:,} diverged rollouts detected and "
+                  "never scored", highlight=False)
     recorded = "" if args.no_record else ", recording.rrd (mjsuff view DIR)"
     out.print(f"results: {directory}/steps.parquet, summary.json, config.toml{recorded}",
               highlight=False)

@@ -101,6 +101,11 @@ class Domain(abc.ABC):
         tolerances). Nothing by default."""
         return None
 
+    def simulation_stats(self) -> dict[str, int]:
+        """Counts of the simulation behind this instance so far, for the run's report (the
+        scenes: ``simulated_steps``, ``diverged_rollouts``). Nothing for exact domains."""
+        return {}
+
     def true_optimal_start_values(self) -> np.ndarray:
         """Ground truth ``V*_{w*}(s)`` per evaluation start ``(S,)``; domains whose ``V*`` is an
         approximation compute it here with a larger budget."""

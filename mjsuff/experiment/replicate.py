@@ -179,6 +179,7 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         evidence = Evidence(domain, list(demos), map_policy, nevd_bound, piob_bound,
                             lambda ex: posterior_excluding(ex)[1])
         first_row = len(rows)
+        simulation = domain.simulation_stats()
         for rule in rules:
             decision = rule.decide(evidence)
             true_nevd, true_piob, optimality = truth(decision.policy)
@@ -199,6 +200,8 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
                 "map_log_likelihood": post.map_log_likelihood,
                 "acceptance_rate": post.acceptance_rate,
                 "rhat": post.rhat,
+                "simulated_steps": simulation.get("simulated_steps", 0),
+                "diverged_rollouts": simulation.get("diverged_rollouts", 0),
             })
         if observer is not None:
             observer.step(step, demos[-1], w, nevd, post.map_weights, map_policy, rows[first_row:])

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from mjsuff import __version__
@@ -35,6 +36,7 @@ class RunResult:
     planned: int
     interrupted: bool
     summary: dict[str, Any]
+    simulation: dict[str, int]
 
 
 def finalize(directory: Path, scenario: Scenario, planned: int, started: float,
@@ -47,6 +49,7 @@ def finalize(directory: Path, scenario: Scenario, planned: int, started: float,
     if completed:
         atomic_write_parquet(directory / "steps.parquet", steps)
     write_json(directory / "summary.json", {"scenario": scenario.name, **summary})
+    simulation = simulation_totals(steps)
     write_json(directory / "run.json", {
         "mjsuff_version": __version__,
         "python": platform.python_version(),
@@ -56,8 +59,19 @@ def finalize(directory: Path, scenario: Scenario, planned: int, started: float,
         "completed_replicates": completed,
         "interrupted": interrupted,
         "elapsed_seconds": round(time.perf_counter() - started, 3),
+        **simulation,
     })
-    return RunResult(directory, completed, planned, interrupted, summary)
+    return RunResult(directory, completed, planned, interrupted, summary, simulation)
+
+
+def simulation_totals(steps: pd.DataFrame) -> dict[str, int]:
+    """MuJoCo steps simulated and diverged rollouts over the finished replicates (the step
+    columns are running counts per replicate; exact domains have none)."""
+    columns = ("simulated_steps", "diverged_rollouts")
+    if steps.empty or not all(c in steps for c in columns):
+        return {c: 0 for c in columns}
+    last = steps.groupby("replicate")[list(columns)].max()
+    return {c: int(last[c].sum()) for c in columns}
 
 
 #: The run's Rerun recording, in its output directory.

@@ -35,7 +35,7 @@ from scipy.special import logsumexp
 
 from mjsuff.domain import Demo, Domain
 from mjsuff.scenes.library import TrajectoryLibrary
-from mjsuff.scenes.planner import CEMPlanner
+from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
 from mjsuff.sphere import normalize, random_unit_vectors
@@ -94,8 +94,8 @@ class SceneDomain(Domain):
         self.library = TrajectoryLibrary(s, scene.num_features, scene.spline.shape)
         planning = planning or PlanningSettings()
         self.planning = planning
-        self.planner = CEMPlanner(scene, planning.planner or scene.planner_config, self.library)
-        self.refiner = CEMPlanner(scene, planning.refine, self.library)
+        self.planner = SamplingPlanner(scene, planning.planner or scene.planner_config, self.library)
+        self.refiner = SamplingPlanner(scene, planning.refine or scene.refine_config, self.library)
         self._refined = [np.empty((0, scene.num_features)) for _ in range(s)]
         self.unchanged_tolerance = unchanged_tolerance
         self.match_tolerance = match_tolerance
@@ -113,7 +113,7 @@ class SceneDomain(Domain):
         self._random_mu = np.nanmean(feats, axis=1)
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
         if planning.seed_directions:
-            seeder = CEMPlanner(scene, planning.seed_planner, self.library)
+            seeder = SamplingPlanner(scene, planning.seed_planner, self.library)
             directions = -np.abs(random_unit_vectors(rng, planning.seed_directions,
                                                      scene.num_features))
             starts = np.repeat(np.arange(s), planning.seed_directions)
@@ -126,6 +126,11 @@ class SceneDomain(Domain):
         self._truth: np.ndarray | None = None
         # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
         self._truth_seed = int(rng.integers(2**63))
+
+    def simulation_stats(self) -> dict[str, int]:
+        """MuJoCo steps simulated and rollouts flagged as diverged (never scored) so far."""
+        sim = self.scene.simulator
+        return {"simulated_steps": sim.steps_simulated, "diverged_rollouts": sim.diverged}
 
     def configure(self, scenario: Scenario) -> None:
         """Take the scenario's expert settings and trajectory tolerances (``[expert]``, ``[rules]``)."""
@@ -141,7 +146,7 @@ class SceneDomain(Domain):
         """Planned knots ``(S, K, nu)`` from every evaluation start for reward weights ``w``."""
         return self._plan(self.planner, w)
 
-    def _plan(self, planner: CEMPlanner, w: np.ndarray) -> np.ndarray:
+    def _plan(self, planner: SamplingPlanner, w: np.ndarray) -> np.ndarray:
         starts = np.arange(len(self.scene.starts))
         weights = np.broadcast_to(np.asarray(w, dtype=float), (len(starts), self.num_features))
         best = [self.library.best(s, weights[:1])[1][0] for s in starts]
@@ -199,9 +204,9 @@ class SceneDomain(Domain):
             starts = np.arange(len(self.scene.starts))
             w = np.tile(self.true_weights, (len(starts), 1))
             warm = np.stack([library.arrays(s)[1][library.best(s, w[:1])[1][0]] for s in starts])
-            plans = CEMPlanner(self.scene, self.planner.config.scaled(self.planning.truth_scale),
+            plans = SamplingPlanner(self.scene, self.planner.config.scaled(self.planning.truth_scale),
                                library).plan(starts, w, rng, warm_knots=warm)
-            CEMPlanner(self.scene, self.planning.refine, library).plan(
+            SamplingPlanner(self.scene, self.refiner.config, library).plan(
                 starts, w, rng, warm_knots=plans.knots)
             if self.expert is not None:
                 best = type(self.expert)(self.scene, self.expert.settings.model_copy(

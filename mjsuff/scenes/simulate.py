@@ -2,7 +2,9 @@
 
 A rollout is diverged when its state becomes non-finite or absurdly large, or when simulated time
 stalls (MuJoCo resets or stops advancing a diverged ``mjData``); diverged rollouts are flagged and
-must never be scored as real trajectories.
+must never be scored as real trajectories. MuJoCo's warnings that end a simulation (bad qpos, qvel,
+qacc or ctrl) reset its ``mjData``, which the time check sees; their counters cannot be read per
+rollout (``mujoco.rollout`` reuses one ``mjData`` per thread and clears them between rollouts).
 """
 
 from __future__ import annotations
