@@ -6,7 +6,14 @@ Layout of ``DIR``:
 * ``replicates/replicate-NNNNN.parquet`` — the steps of each finished replicate;
 * ``steps.parquet`` — all finished replicates' steps, one row per replicate × rule × param × step;
 * ``summary.json`` — the measures (see ``mjsuff.experiment.measures``), deterministic per seed;
-* ``run.json`` — how the run went: versions, timing, completed and planned replicates.
+* ``run.json`` — how the run went: versions, backend, timing, completed and planned replicates;
+* ``recording.rrd`` — the Rerun recording (``recordings/`` holds per-replicate parts until the run
+  ends and merges them).
+
+A sweep (``[sweep]`` in the scenario) has one such directory per cell under ``cells/``, and at the
+top ``config.toml``, ``sweep.json`` (the cells, their labels and directories), ``steps.parquet``
+(every cell's rows with a ``cell`` column and one column per swept key), ``summary.json`` and
+``run.json``.
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -52,12 +60,16 @@ def atomic_write_parquet(path: Path, frame: pd.DataFrame) -> None:
         raise
 
 
-def prepare_output(directory: Path, overwrite: bool) -> None:
-    """Create ``directory`` and prove it writable, before any work starts."""
+def prepare_output(directory: Path, overwrite: bool, resume: bool = False) -> None:
+    """Create ``directory`` and prove it writable, before any work starts.
+
+    A non-empty directory needs ``overwrite`` (its results are removed) or ``resume`` (its
+    finished replicates are kept)."""
     if directory.exists() and not directory.is_dir():
         raise OutputError(f"{directory}: --out exists and is not a directory")
-    if directory.is_dir() and any(directory.iterdir()) and not overwrite:
-        raise OutputError(f"{directory}: --out is not empty; pass --overwrite to replace it")
+    if directory.is_dir() and any(directory.iterdir()) and not (overwrite or resume):
+        raise OutputError(f"{directory}: --out is not empty; pass --resume to continue the run "
+                          "in it or --overwrite to replace it")
     try:
         directory.mkdir(parents=True, exist_ok=True)
         (directory / "replicates").mkdir(exist_ok=True)
@@ -66,11 +78,14 @@ def prepare_output(directory: Path, overwrite: bool) -> None:
         probe.unlink()
     except OSError as exc:
         raise OutputError(f"{directory}: --out is not writable ({exc.strerror or exc})") from None
-    if overwrite:
+    if overwrite and not resume:
         for old in (directory / "replicates").glob("replicate-*.parquet"):
             old.unlink()
-        for name in ("steps.parquet", "summary.json", "run.json"):
+        for name in ("steps.parquet", "summary.json", "run.json", "sweep.json", "recording.rrd"):
             (directory / name).unlink(missing_ok=True)
+        for name in ("cells", "recordings"):
+            if (directory / name).is_dir():
+                shutil.rmtree(directory / name)
 
 
 def replicate_path(directory: Path, replicate: int) -> Path:

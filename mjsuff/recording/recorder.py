@@ -145,13 +145,15 @@ class RunRecorder:
     The file is written as the run goes; ``close`` (also on Ctrl-C) completes it.
     """
 
-    def __init__(self, path: Path, scenario: Scenario) -> None:
+    def __init__(self, path: Path, scenario: Scenario, default_layout: bool = True) -> None:
         self.path = Path(path)
         self.scenario = scenario
         self.recording = rr.RecordingStream(application_id="mjsuff",
                                             recording_id=f"{scenario.name}-seed{scenario.seed}")
         self.recording.set_log_time_enabled(False)
-        self.recording.save(str(self.path), default_blueprint=blueprint(scenario))
+        # Parts of one run merged later carry the default layout once (replicate 0's part).
+        self.recording.save(str(self.path),
+                            default_blueprint=blueprint(scenario) if default_layout else None)
         self.recording.log("run/scenario", rr.TextDocument(
             f"```toml\n{scenario.to_toml()}```", media_type=rr.MediaType.MARKDOWN), static=True)
 

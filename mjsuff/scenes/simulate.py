@@ -40,6 +40,13 @@ class Rollouts:
     valid: np.ndarray
 
 
+def default_threads() -> int:
+    """Rollout threads: ``$MJSUFF_SIM_THREADS`` (set by parallel backends to share the cores
+    among replicates), else all cores. Results do not depend on it."""
+    value = os.environ.get("MJSUFF_SIM_THREADS", "")
+    return int(value) if value.isdigit() and int(value) > 0 else (os.cpu_count() or 1)
+
+
 class Simulator:
     """Runs batches of open-loop rollouts of one model from given start states.
 
@@ -51,7 +58,7 @@ class Simulator:
 
     def __init__(self, model: mujoco.MjModel, threads: int | None = None) -> None:
         self.model = model
-        self.threads = threads or os.cpu_count() or 1
+        self.threads = threads or default_threads()
         self._datas = [mujoco.MjData(model) for _ in range(self.threads)]
         self.state_size = mujoco.mj_stateSize(model, FULL_STATE)
         #: Steps simulated and rollouts flagged as diverged so far (for run reports).

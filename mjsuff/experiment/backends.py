@@ -1,0 +1,271 @@
+"""Where replicates run: in this process, in local worker processes, or on a Ray cluster.
+
+A replicate is a pure function of (scenario, replicate index, demo source): its randomness comes
+from its own seed streams (``replicate.seed_sequence``), so every backend gives the same rows for
+the same seeds. A backend takes a list of ``ReplicateTask`` and yields ``(task, rows)`` as each one
+finishes, in whatever order they finish; the runner writes each to disk at once.
+
+* ``SerialBackend`` — one at a time in this process, with per-step progress.
+* ``LocalBackend(workers)`` — a pool of ``workers`` processes (``spawn``), per-step progress through
+  a queue. MuJoCo's rollout threads are divided among the workers.
+* ``RayBackend(address)`` — one Ray task per replicate, on a running cluster (``address``) or on a
+  local Ray instance; needs the ``ray`` extra (``pip install 'mjsuff[ray]'``).
+"""
+
+from __future__ import annotations
+
+import abc
+import multiprocessing
+import os
+import queue
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from threadpoolctl import threadpool_limits
+
+from mjsuff.experiment.replicate import DemoSource, StepCallback, run_replicate
+from mjsuff.experiment.scenario import Scenario
+
+#: Environment variable read by ``mjsuff.scenes.simulate.Simulator`` for its default thread count.
+SIM_THREADS_ENV = "MJSUFF_SIM_THREADS"
+
+TaskProgress = Callable[["ReplicateTask", int, int], None]
+"""Called as ``(task, step, max_demos)`` after each demonstration step of a task."""
+
+
+class BackendError(RuntimeError):
+    """A backend cannot be used (e.g. Ray is not installed); the message is one line for the user."""
+
+
+@dataclass(frozen=True)
+class ReplicateTask:
+    """One replicate of one scenario (a sweep cell), and where its recording goes.
+
+    Attributes:
+        key: The task's identity in the run (e.g. ``(cell, replicate)``), echoed back.
+        scenario: The fully resolved scenario of the cell.
+        replicate: Replicate index (selects the seed streams).
+        demo_source: Saved demos replacing the live expert, or None.
+        recording: Path of this replicate's ``.rrd`` file, or None for no recording. It is
+            written under a temporary name and renamed when the replicate finishes.
+    """
+
+    key: tuple[int, int]
+    scenario: Scenario
+    replicate: int
+    demo_source: DemoSource | None = None
+    recording: Path | None = None
+
+
+def partial_path(path: Path) -> Path:
+    """Where an unfinished recording is written before it is renamed to ``path``."""
+    return path.with_name(f".{path.name}.partial")
+
+
+def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> list[dict[str, Any]]:
+    """Run one task in this process (BLAS limited to one thread: the matrices are small)."""
+    recorder = None
+    if task.recording is not None:
+        from mjsuff.recording.recorder import RunRecorder  # Rerun only when recording
+
+        recorder = RunRecorder(partial_path(task.recording), task.scenario,
+                               default_layout=task.replicate == 0)
+    try:
+        with threadpool_limits(limits=1):
+            rows = run_replicate(task.scenario, task.replicate, on_step, task.demo_source,
+                                 recorder.replicate(task.replicate) if recorder else None)
+    finally:
+        if recorder is not None:
+            recorder.close()
+    if task.recording is not None:
+        os.replace(partial_path(task.recording), task.recording)
+    return rows
+
+
+class Backend(abc.ABC):
+    """Runs replicate tasks; ``run`` yields each ``(task, rows)`` as soon as it finishes."""
+
+    name: str = "backend"
+
+    @abc.abstractmethod
+    def run(self, tasks: list[ReplicateTask],
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
+        """Run ``tasks``; on an exception or when the consumer stops, unstarted tasks are cancelled."""
+
+    def describe(self) -> str:
+        return self.name
+
+
+class SerialBackend(Backend):
+    """Every task in this process, one after another."""
+
+    name = "serial"
+
+    def run(self, tasks, on_step=None):
+        for task in tasks:
+            callback = None if on_step is None else (lambda s, m, t=task: on_step(t, s, m))
+            yield task, execute(task, callback)
+
+
+def _worker_init(threads: int) -> None:
+    # Ctrl-C is the parent's to handle: it keeps what finished and stops the workers.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.environ[SIM_THREADS_ENV] = str(threads)
+
+
+def _execute_reporting(task: ReplicateTask, events: Any) -> list[dict[str, Any]]:
+    def report(step: int, max_demos: int) -> None:
+        events.put((task.key, step, max_demos))
+
+    return execute(task, report if events is not None else None)
+
+
+class LocalBackend(Backend):
+    """A pool of local worker processes.
+
+    Args:
+        workers: Number of processes (default: all cores). MuJoCo rollouts in each get
+            ``cores // workers`` threads (at least one).
+    """
+
+    name = "local"
+
+    def __init__(self, workers: int | None = None) -> None:
+        cores = os.cpu_count() or 1
+        if workers is not None and workers < 1:
+            raise BackendError(f"--workers: expected a positive number, got {workers}")
+        self.workers = workers or cores
+        self.sim_threads = max(1, cores // self.workers)
+
+    def describe(self) -> str:
+        return f"local, {self.workers} worker process(es)"
+
+    def run(self, tasks, on_step=None):
+        if not tasks:
+            return
+        workers = min(self.workers, len(tasks))
+        context = multiprocessing.get_context("spawn")
+        manager = context.Manager() if on_step is not None else None
+        events = manager.Queue() if manager is not None else None
+        by_key = {t.key: t for t in tasks}
+        stop = threading.Event()
+
+        def drain() -> None:
+            while not stop.is_set():
+                try:
+                    key, step, max_demos = events.get(timeout=0.1)
+                except (queue.Empty, EOFError, OSError):
+                    continue
+                on_step(by_key[key], step, max_demos)
+
+        drainer = threading.Thread(target=drain, daemon=True) if events is not None else None
+        pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_init,
+                                   initargs=(self.sim_threads,))
+        try:
+            if drainer is not None:
+                drainer.start()
+            pending: dict[Future, ReplicateTask] = {
+                pool.submit(_execute_reporting, t, events): t for t in tasks}
+            while pending:
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for future in sorted(done, key=lambda f: pending[f].key):
+                    task = pending.pop(future)
+                    yield task, future.result()
+        except BaseException:
+            # Interrupted or failed: unfinished replicates are abandoned, not waited for.
+            for process in list(getattr(pool, "_processes", {}).values()):
+                process.terminate()
+            raise
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+            stop.set()
+            if drainer is not None:
+                drainer.join()
+            if manager is not None:
+                manager.shutdown()
+
+
+class RayBackend(Backend):
+    """One Ray task per replicate.
+
+    Args:
+        address: A running cluster's address (``ray start --head`` prints it), or None for a local
+            Ray instance with ``num_cpus`` CPUs (default: all cores).
+        num_cpus: CPUs of the local instance (ignored with ``address``).
+        cpus_per_task: CPUs each replicate reserves; MuJoCo rollouts use as many threads.
+    """
+
+    name = "ray"
+
+    def __init__(self, address: str | None = None, num_cpus: int | None = None,
+                 cpus_per_task: int = 1) -> None:
+        try:
+            import ray
+        except ImportError:
+            raise BackendError("--backend ray: Ray is not installed; pip install 'mjsuff[ray]'") from None
+        if cpus_per_task < 1:
+            raise BackendError(f"cpus_per_task: expected a positive number, got {cpus_per_task}")
+        self.ray = ray
+        self.address = address
+        self.num_cpus = num_cpus
+        self.cpus_per_task = cpus_per_task
+
+    def describe(self) -> str:
+        return f"ray ({self.address or 'local instance'})"
+
+    def _connect(self) -> None:
+        if self.ray.is_initialized():
+            return
+        options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
+                                   "configure_logging": False}
+        if self.address:
+            options["address"] = self.address
+        else:
+            options["num_cpus"] = self.num_cpus or os.cpu_count() or 1
+        try:
+            self.ray.init(**options)
+        except ConnectionError as exc:
+            raise BackendError(f"--address {self.address}: cannot reach a Ray cluster ({exc})") from None
+
+    def run(self, tasks, on_step=None):
+        if not tasks:
+            return
+        self._connect()
+        remote = self.ray.remote(num_cpus=self.cpus_per_task)(_ray_execute)
+        pending = {remote.remote(t, self.cpus_per_task): t for t in tasks}
+        try:
+            while pending:
+                done, _ = self.ray.wait(list(pending), num_returns=1)
+                for ref in done:
+                    task = pending.pop(ref)
+                    yield task, self.ray.get(ref)
+        finally:
+            for ref in pending:
+                self.ray.cancel(ref, force=True)
+
+    def shutdown(self) -> None:
+        if self.ray.is_initialized():
+            self.ray.shutdown()
+
+
+def _ray_execute(task: ReplicateTask, threads: int) -> list[dict[str, Any]]:
+    os.environ[SIM_THREADS_ENV] = str(threads)
+    return execute(task)
+
+
+def make_backend(name: str, workers: int | None = None, address: str | None = None) -> Backend:
+    """``serial``, ``local`` (``workers`` processes; one worker means serial) or ``ray``."""
+    if name == "local":
+        if workers == 1:
+            return SerialBackend()
+        return LocalBackend(workers)
+    if name == "serial":
+        return SerialBackend()
+    if name == "ray":
+        return RayBackend(address, num_cpus=workers)
+    raise BackendError(f"--backend: expected one of local, serial, ray (got {name!r})")

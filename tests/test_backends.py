@@ -1,0 +1,54 @@
+"""Backends: local processes and Ray give the same rows as a serial run for the same seeds."""
+
+import pandas as pd
+import pytest
+
+from mjsuff.experiment.backends import BackendError, LocalBackend, SerialBackend, make_backend
+from mjsuff.experiment.runner import RECORDING, run_scenario
+from mjsuff.recording import Recording
+from tests.conftest import small_scenario
+
+
+@pytest.fixture(scope="module")
+def serial_run(tmp_path_factory):
+    directory = tmp_path_factory.mktemp("serial") / "run"
+    run_scenario(small_scenario(replicates=3), directory, backend=SerialBackend())
+    return directory
+
+
+def test_local_processes_match_serial(serial_run, tmp_path):
+    progress = []
+    result = run_scenario(small_scenario(replicates=3), tmp_path / "local",
+                          progress=lambda *a: progress.append(a), backend=LocalBackend(2))
+    assert result.completed == 3
+    pd.testing.assert_frame_equal(pd.read_parquet(serial_run / "steps.parquet"),
+                                  pd.read_parquet(tmp_path / "local" / "steps.parquet"))
+    assert (serial_run / "summary.json").read_bytes() == \
+        (tmp_path / "local" / "summary.json").read_bytes()
+    # Per-demo progress came back from the workers, and it ends at all replicates done.
+    assert any(0 < done % 1 for _, _, done in progress)
+    assert progress[-1] == (3, 3, 3)
+    # The replicates' recordings were merged into one file holding all of them, parts removed.
+    paths = Recording(tmp_path / "local" / RECORDING).entity_paths()
+    assert {"/r0/posterior/samples", "/r1/posterior/samples", "/r2/posterior/samples"} <= paths
+    assert not (tmp_path / "local" / "recordings").exists()
+
+
+def test_ray_matches_serial(serial_run, tmp_path):
+    pytest.importorskip("ray", reason="the ray extra is not installed")
+    backend = make_backend("ray", workers=2)
+    try:
+        run_scenario(small_scenario(replicates=3), tmp_path / "ray", backend=backend,
+                     record=False)
+    finally:
+        backend.shutdown()
+    pd.testing.assert_frame_equal(pd.read_parquet(serial_run / "steps.parquet"),
+                                  pd.read_parquet(tmp_path / "ray" / "steps.parquet"))
+
+
+def test_backend_choices_are_checked():
+    with pytest.raises(BackendError, match="--workers"):
+        LocalBackend(0)
+    with pytest.raises(BackendError, match="--backend"):
+        make_backend("slurm")
+    assert isinstance(make_backend("local", workers=1), SerialBackend)

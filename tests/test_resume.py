@@ -1,0 +1,93 @@
+"""Kill and resume: a run killed (SIGKILL, no clean-up) after some replicates and resumed gives the
+same results as an uninterrupted run, without redoing or duplicating finished replicates."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from mjsuff.cli import main
+from mjsuff.experiment import backends
+from mjsuff.experiment.results import OutputError
+from mjsuff.experiment.runner import run_scenario
+from tests.conftest import small_scenario
+
+GRIDWORLD = str(Path(__file__).parent.parent / "scenarios" / "gridworld.toml")
+SETS = ["demos.max_demos=3", "posterior.num_samples=60", "posterior.chains=6",
+        "posterior.burn_in=20", "rules.patience=[1]", "rules.validation_intervals=[2]"]
+
+
+def cli_args(out: Path, replicates: int, *extra: str) -> list[str]:
+    args = ["run", GRIDWORLD, "--out", str(out), "--quiet", "--replicates", str(replicates),
+            "--backend", "serial", *extra]
+    for s in SETS:
+        args += ["--set", s]
+    return args
+
+
+def test_killed_run_resumes_to_the_uninterrupted_result(tmp_path):
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    assert main(cli_args(whole, 6)) == 0
+
+    proc = subprocess.Popen([sys.executable, "-m", "mjsuff.cli", *cli_args(killed, 6)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    second = killed / "replicates" / "replicate-00001.parquet"
+    deadline = time.monotonic() + 120
+    while not second.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    os.kill(proc.pid, signal.SIGKILL)  # no handler runs: nothing is summarized
+    proc.wait()
+    done_before = sorted(p.name for p in (killed / "replicates").glob("replicate-*.parquet"))
+    assert 2 <= len(done_before) < 6
+    assert not (killed / "steps.parquet").exists()
+    stamps = {p: p.stat().st_mtime_ns for p in (killed / "replicates").glob("*.parquet")}
+
+    assert main(cli_args(killed, 6, "--resume")) == 0
+    # Finished replicates were kept as they were, not redone.
+    for path, stamp in stamps.items():
+        assert path.stat().st_mtime_ns == stamp
+    steps = pd.read_parquet(killed / "steps.parquet")
+    assert not steps.duplicated(["replicate", "rule", "param", "step"]).any()
+    pd.testing.assert_frame_equal(steps, pd.read_parquet(whole / "steps.parquet"))
+    assert (killed / "summary.json").read_bytes() == (whole / "summary.json").read_bytes()
+    # The merged recording holds every replicate, however the run was split.
+    from mjsuff.recording import Recording
+
+    paths = Recording(killed / "recording.rrd").entity_paths()
+    assert all(f"/r{r}/posterior/samples" in paths for r in range(6))
+
+
+def test_resume_can_add_replicates_and_refuses_a_different_scenario(tmp_path):
+    out = tmp_path / "r"
+    run_scenario(small_scenario(replicates=1), out, record=False)
+    calls = []
+    real = backends.run_replicate
+
+    def counting(scenario, replicate, *rest):
+        calls.append(replicate)
+        return real(scenario, replicate, *rest)
+
+    backends.run_replicate = counting
+    try:
+        result = run_scenario(small_scenario(replicates=2), out, record=False, resume=True)
+    finally:
+        backends.run_replicate = real
+    assert calls == [1] and result.completed == 2
+    with pytest.raises(OutputError, match=r"demos\.beta"):
+        run_scenario(small_scenario(replicates=2, **{"demos.beta": 5.0}), out, resume=True)
+    with pytest.raises(OutputError, match=r"no config\.toml"):
+        run_scenario(small_scenario(), tmp_path / "empty", resume=True)
+
+
+def test_resume_needs_out_and_a_non_empty_out_needs_a_choice(tmp_path, capsys):
+    assert main(["run", GRIDWORLD, "--resume"]) == 2
+    assert "--out" in capsys.readouterr().err
+    (tmp_path / "x").mkdir()
+    (tmp_path / "x" / "file").write_text("")
+    assert main(cli_args(tmp_path / "x", 1)) == 2
+    assert "--resume" in capsys.readouterr().err
