@@ -7,8 +7,12 @@ Overrides (``--set KEY=VALUE``) are applied before validation; VALUE is read as 
 
 from __future__ import annotations
 
+import copy
+import itertools
 import math
+import re
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -79,6 +83,9 @@ class Scenario(_Strict):
     posterior: SamplerConfig = SamplerConfig()
     sufficiency: SufficiencySettings = SufficiencySettings()
     rules: RuleSettings = RuleSettings()
+    sweep: dict[str, list[Any]] = Field(
+        default_factory=dict, description="grid: dotted scenario key -> values; every combination "
+        "is a cell run with the same seeds (see ``cells``)")
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
@@ -99,6 +106,32 @@ class Scenario(_Strict):
                              f"({self.posterior.chains} chains, got {self.posterior.num_samples})")
         return self
 
+    def cells(self, source: str = "scenario") -> list[SweepCell]:
+        """Every combination of the sweep's values (the scenario itself when there is no sweep),
+        each a validated scenario without a sweep. Errors name ``source`` and ``sweep.KEY``."""
+        if not self.sweep:
+            return [SweepCell(0, {}, self)]
+        base = self.model_dump(mode="json", exclude_none=True)
+        del base["sweep"]
+        keys = list(self.sweep)
+        for key in keys:
+            if key.split(".")[0] in _UNSWEEPABLE or not self.sweep[key]:
+                raise ScenarioError(
+                    f"{source}: sweep.{key}: expected a non-empty list of values for a scenario key "
+                    f"other than {', '.join(sorted(_UNSWEEPABLE))}")
+        cells = []
+        for index, values in enumerate(itertools.product(*(self.sweep[k] for k in keys))):
+            labels = dict(zip(keys, values, strict=True))
+            data = copy.deepcopy(base)
+            for key, value in labels.items():
+                _set_dotted(data, key.split("."), value, f"{source}: sweep.{key}")
+            try:
+                cell = scenario_from_dict(data, f"{source}: sweep cell {_label(labels)}")
+            except ScenarioError as exc:
+                raise ScenarioError(str(exc)) from None
+            cells.append(SweepCell(index, labels, cell))
+        return cells
+
     def domain_params(self) -> BaseModel:
         return get_domain(self.domain.name).params.model_validate(self.domain.params)
 
@@ -107,6 +140,39 @@ class Scenario(_Strict):
         data = self.model_dump(mode="json", exclude_none=True)
         data["domain"]["params"] = self.domain_params().model_dump(mode="json")
         return tomli_w.dumps(data)
+
+
+_UNSWEEPABLE = {"name", "seed", "replicates", "sweep"}
+
+
+def _label(labels: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in labels.items())
+
+
+def _set_dotted(data: dict[str, Any], keys: list[str], value: Any, where: str) -> None:
+    node = data
+    for k in keys[:-1]:
+        child = node.setdefault(k, {})
+        if not isinstance(child, dict):
+            raise ScenarioError(f"{where}: {k} is not a table")
+        node = child
+    node[keys[-1]] = value
+
+
+@dataclass(frozen=True)
+class SweepCell:
+    """One combination of a sweep: its index, ``{dotted key: value}`` and resolved scenario."""
+
+    index: int
+    labels: dict[str, Any]
+    scenario: Scenario
+
+    @property
+    def dirname(self) -> str:
+        """``cell-NN_key=value_...`` (the last part of each key), safe as a directory name."""
+        parts = [f"{k.split('.')[-1]}={v}" for k, v in self.labels.items()]
+        name = "_".join([f"cell-{self.index:02d}", *parts])
+        return re.sub(r"[^A-Za-z0-9_.=+-]", "-", name)
 
 
 def _describe(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
@@ -137,13 +203,7 @@ def parse_override(text: str) -> tuple[list[str], Any]:
 def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
     for text in overrides:
         keys, value = parse_override(text)
-        node = data
-        for k in keys[:-1]:
-            child = node.setdefault(k, {})
-            if not isinstance(child, dict):
-                raise ScenarioError(f"--set {text!r}: {k} is not a table")
-            node = child
-        node[keys[-1]] = value
+        _set_dotted(data, keys, value, f"--set {text!r}")
     return data
 
 
@@ -195,4 +255,6 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
         raise ScenarioError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     data = apply_overrides(data, overrides or [])
     overridden = {".".join(parse_override(o)[0]) for o in overrides or []}
-    return scenario_from_dict(data, str(path), overridden)
+    scenario = scenario_from_dict(data, str(path), overridden)
+    scenario.cells(str(path))  # every sweep cell is valid before any work starts
+    return scenario
