@@ -18,8 +18,9 @@ from rich.table import Table
 
 from mjsuff import __version__
 from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
+from mjsuff.experiment.backends import BackendError, make_backend
 from mjsuff.experiment.results import OutputError
-from mjsuff.experiment.runner import RunResult, run_scenario
+from mjsuff.experiment.runner import CellResult, RunResult, run_scenario
 from mjsuff.experiment.scenario import Scenario, ScenarioError, load_scenario
 
 EXIT_USAGE = 2
@@ -74,24 +75,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     scenario = _load(args)
     if scenario is None:
         return EXIT_USAGE
+    if args.resume and not args.out:
+        err.print("[red]error:[/] --resume: name the run directory to continue with --out DIR",
+                  highlight=False)
+        return EXIT_USAGE
     directory = Path(args.out) if args.out else Path("runs") / (
         f"{scenario.name}-{time.strftime('%Y%m%d-%H%M%S')}")
     progress = Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[detail]}"),
         TimeElapsedColumn(), TimeRemainingColumn(), console=err, disable=args.quiet,
     )
-    task = progress.add_task(scenario.name, total=scenario.replicates, detail="")
-    state = {"replicate": 0}
+    cells = len(scenario.cells())
+    task = progress.add_task(scenario.name, total=cells * scenario.replicates, detail="")
 
-    def on_step(step: int, max_demos: int) -> None:
-        progress.update(task, completed=state["replicate"] + step / max_demos,
-                        detail=f"replicate {state['replicate'] + 1}/{scenario.replicates}, "
-                               f"demo {step}/{max_demos}")
+    def on_progress(finished: int, planned: int, done: float) -> None:
+        progress.update(task, completed=done, total=planned,
+                        detail=f"{finished}/{planned} replicates"
+                               + (f" in {cells} sweep cells" if cells > 1 else ""))
 
-    def on_replicate(replicate: int) -> None:
-        state["replicate"] = replicate + 1
-        progress.update(task, completed=replicate + 1)
-
+    try:
+        backend = make_backend(args.backend, args.workers, args.address)
+    except BackendError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
     sources, bad_input = None, ()
     if args.demos:
         from mjsuff.experts.demo_set import DemoFileError
@@ -105,9 +111,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     try:
         with progress:
-            result = run_scenario(scenario, directory, args.overwrite, on_step, on_replicate,
-                                  sources, record=not args.no_record)
-    except OutputError as exc:
+            result = run_scenario(scenario, directory, args.overwrite, on_progress, sources,
+                                  record=not args.no_record, backend=backend, resume=args.resume)
+    except (OutputError, BackendError) as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
     except bad_input as exc:  # found mid-run: a demo set without the demo asked for
@@ -119,14 +125,20 @@ def cmd_run(args: argparse.Namespace) -> int:
                   "(steps.parquet, summary.json)", highlight=False)
         return EXIT_INTERRUPTED
     if not args.quiet:
-        out.print(summary_table(result, scenario.rules.nevd_thresholds))
+        for cell in result.cells or (CellResult({}, result),):
+            table = summary_table(cell.result, scenario.rules.nevd_thresholds)
+            if cell.labels:
+                table.title = ", ".join(f"{k} = {v}" for k, v in cell.labels.items()) + \
+                    f": {table.title}"
+            out.print(table)
     if result.simulation["simulated_steps"]:
         out.print(f"MuJoCo: {result.simulation['simulated_steps']:,} steps simulated; "
                   f"{result.simulation['diverged_rollouts']:,} diverged rollouts detected and "
                   "never scored", highlight=False)
     recorded = "" if args.no_record else ", recording.rrd (mjsuff view DIR)"
-    out.print(f"results: {directory}/steps.parquet, summary.json, config.toml{recorded}",
-              highlight=False)
+    cells_note = " (per cell in cells/*/; sweep.json)" if result.cells else ""
+    out.print(f"results: {directory}/steps.parquet, summary.json, config.toml{recorded}"
+              f"{cells_note}; mjsuff report {directory} for figures", highlight=False)
     return 0
 
 
@@ -206,6 +218,21 @@ def cmd_demos(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_report(args: argparse.Namespace) -> int:
+    from mjsuff.report import ReportError, write_report  # matplotlib only when asked for
+
+    directories = [Path(d) for d in args.directories]
+    out_dir = Path(args.out) if args.out else directories[0] / "report"
+    try:
+        path = write_report(directories, out_dir)
+    except ReportError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    figures = sorted(p.name for p in out_dir.glob("*.png"))
+    out.print(f"report: {path} (figures: {', '.join(figures)})", highlight=False)
+    return 0
+
+
 def has_display() -> bool:
     """Whether a native viewer window can open here."""
     if sys.platform in ("darwin", "win32"):
@@ -274,6 +301,17 @@ def build_parser() -> argparse.ArgumentParser:
                      help="do not write the Rerun recording DIR/recording.rrd")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the results in a non-empty --out directory")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the run in --out: keep its finished replicates, run the rest "
+                          "(the scenario must match its config.toml; --replicates may grow)")
+    run.add_argument("--backend", choices=("local", "serial", "ray"), default="local",
+                     help="where replicates run: local worker processes (default), serial (this "
+                          "process, per-demo progress) or a Ray cluster (pip install 'mjsuff[ray]')")
+    run.add_argument("--workers", type=int,
+                     help="local: worker processes (default: all cores; 1 = serial); ray: CPUs of "
+                          "the local Ray instance")
+    run.add_argument("--address", help="ray: address of a running cluster (default: start a "
+                                       "local Ray instance)")
     run.add_argument("--quiet", action="store_true", help="no progress bar or summary table")
     run.set_defaults(func=cmd_run)
 
@@ -301,6 +339,18 @@ def build_parser() -> argparse.ArgumentParser:
                       help="serve the web viewer instead (works without a display)")
     view.add_argument("--port", type=int, default=9090, help="web viewer port (with --web)")
     view.set_defaults(func=cmd_view)
+
+    report = sub.add_parser("report", help="figures, rule comparisons and a markdown summary of "
+                                           "finished runs",
+                            description="Write the paper's figures (F1 and demos needed vs. ε, "
+                                        "bound and true nEVD vs. demos, the noise ablation), "
+                                        "Kruskal-Wallis and Dunn-Bonferroni tests between rules, "
+                                        "and report.md linking them. Give one run or sweep "
+                                        "directory, or several runs (labelled by the scenario "
+                                        "keys in which they differ).")
+    report.add_argument("directories", nargs="+", metavar="DIR", help="run or sweep directories")
+    report.add_argument("--out", help="where to write (default: DIR/report of the first DIR)")
+    report.set_defaults(func=cmd_report)
 
     hoeff = sub.add_parser("hoeffding", help="print the paper's Table 1 (Hoeffding-based "
                                              "demo counts)")

@@ -1,0 +1,127 @@
+"""``mjsuff report``: figures, the rule comparisons and a markdown summary linking them."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from mjsuff.experiment.measures import measure_group
+from mjsuff.experiment.results import atomic_write_text
+from mjsuff.report.figures import (
+    NAMES,
+    bound_curve,
+    bound_vs_demos,
+    f1_and_demos,
+    noise_ablation,
+    noise_table,
+    rule_curves,
+)
+from mjsuff.report.results import ReportCell, load_cells
+from mjsuff.report.statistics import RuleComparison, compare_rules, observations
+
+
+def _num(x: float, digits: int = 2) -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
+
+
+def _p(p: float) -> str:
+    return "< 0.001" if p < 0.001 else f"= {p:.3f}"
+
+
+def rule_table(cell: ReportCell) -> str:
+    """Rows: rule (param); columns: ε; cells: F1 / demos needed."""
+    curves = rule_curves(cell)
+    if curves.empty:
+        return "_no nEVD rule or baseline in this run_\n"
+    eps = sorted(curves["epsilon"].unique())
+    lines = ["| rule | " + " | ".join(f"ε = {e:g}" for e in eps) + " |",
+             "| --- |" + " --- |" * len(eps)]
+    nevd = curves[curves["rule"] == "nevd"].set_index("epsilon")
+    lines.append(f"| {NAMES['nevd']} | " + " | ".join(
+        f"{_num(nevd.loc[e, 'f1'])} / {_num(nevd.loc[e, 'demos'], 1)}" if e in nevd.index else "–"
+        for e in eps) + " |")
+    for (rule, param), sub in curves[curves["rule"] != "nevd"].groupby(["rule", "param"], sort=False):
+        sub = sub.set_index("epsilon")
+        lines.append(f"| {NAMES[rule]} ({param:g}) | " + " | ".join(
+            f"{_num(sub.loc[e, 'f1'])} / {_num(sub.loc[e, 'demos'], 1)}" for e in eps) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def accuracy_table(cell: ReportCell) -> str:
+    """The nEVD rule per ε: F1, bound accuracy and error at the evaluated step, demos, TPR, FPR."""
+    nevd = cell.steps[cell.steps["rule"] == "nevd"]
+    lines = ["| ε | F1 | accuracy | bound error | demos needed | TPR | FPR |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for eps, group in nevd.groupby("param"):
+        m = measure_group(group, False, float(eps))
+        lines.append(f"| {eps:g} | {_num(m['f1'])} | {_num(m['accuracy'])} | "
+                     f"{_num(m['bound_error'], 3)} | {_num(m['demos_needed'], 1)} ± "
+                     f"{_num(m['demos_needed_sem'], 1)} | {_num(m['tpr'])} | {_num(m['fpr'])} |")
+    curve = bound_curve(cell)
+    every = (cell.steps[cell.steps["rule"] == "nevd"])
+    every = every[every["param"] == every["param"].min()]
+    overall = float((every["bound"] >= every["true_nevd"]).mean()) if len(every) else math.nan
+    lines.append("")
+    lines.append(f"Bound ≥ true nEVD over every replicate and demo count: {_num(overall)} "
+                 f"({len(every)} checks; by demo count: "
+                 + ", ".join(f"{int(s)}: {_num(float(a))}" for s, a in zip(
+                     curve["step"], every.groupby("step").apply(
+                         lambda g: (g["bound"] >= g["true_nevd"]).mean(), include_groups=False),
+                     strict=True)) + ").")
+    return "\n".join(lines) + "\n"
+
+
+def comparison_text(comparison: RuleComparison | None, what: str) -> str:
+    if comparison is None:
+        return f"{what}: not enough variation between rules for a test.\n"
+    medians = ", ".join(f"{NAMES[r]} {m:g}" for r, m in comparison.medians().items())
+    counts = ", ".join(f"{NAMES[r]} n = {v.size}" for r, v in comparison.groups.items())
+    lines = [f"{what}: Kruskal-Wallis H = {comparison.h:.1f}, p {_p(comparison.p)} "
+             f"({counts}); medians: {medians}.", "",
+             "Dunn post-hoc, Bonferroni-adjusted p:", "",
+             "| | " + " | ".join(NAMES[c] for c in comparison.dunn.columns) + " |",
+             "| --- |" + " --- |" * len(comparison.dunn.columns)]
+    for r, row in comparison.dunn.iterrows():
+        lines.append(f"| {NAMES[r]} | " + " | ".join(
+            _p(float(v)).removeprefix("= ") for v in row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_report(directories: list[Path], out: Path) -> Path:
+    """Write figures and ``report.md`` for the runs in ``directories`` into ``out``."""
+    cells = load_cells(directories)
+    out.mkdir(parents=True, exist_ok=True)
+    parts = ["# mjsuff report", "",
+             "Sources: " + ", ".join(f"`{d}`" for d in directories), ""]
+    bound_fig = bound_vs_demos(cells, out / "bound_vs_demos.png")
+    for i, cell in enumerate(cells):
+        replicates = cell.steps["replicate"].nunique()
+        figure = f1_and_demos(cell, out / f"f1_and_demos_{i:02d}.png")
+        f1_obs, demo_obs = observations(cell.steps, cell.thresholds)
+        parts += [f"## {cell.title} ({cell.scenario}, {replicates} replicates)", "",
+                  f"![F1 and demos needed vs. ε]({figure.name})", "",
+                  "F1 / demos needed per rule and threshold (baselines scored at every ε):", "",
+                  rule_table(cell), "The nEVD rule:", "", accuracy_table(cell),
+                  comparison_text(compare_rules(f1_obs, "f1"), "**H1, F1 between rules**"),
+                  comparison_text(compare_rules(demo_obs, "demos"),
+                                  "**H2, demos needed between rules**")]
+    parts += ["## nEVD bound and true nEVD vs. demos", "", f"![bound vs demos]({bound_fig.name})", ""]
+    noise_fig = noise_ablation(cells, out / "noise_ablation.png")
+    if noise_fig is not None:
+        table = noise_table(cells)
+        parts += ["## Noise ablation (nEVD rule)", "", f"![noise ablation]({noise_fig.name})", "",
+                  _frame_markdown(table), ""]
+    path = out / "report.md"
+    atomic_write_text(path, "\n".join(parts))
+    return path
+
+
+def _frame_markdown(frame: pd.DataFrame) -> str:
+    cols = list(frame.columns)
+    lines = ["| " + " | ".join(cols) + " |", "|" + " --- |" * len(cols)]
+    for _, row in frame.iterrows():
+        lines.append("| " + " | ".join(_num(v) if isinstance(v, float) else str(v)
+                                       for v in row) + " |")
+    return "\n".join(lines)

@@ -1,0 +1,96 @@
+"""Load finished runs for a report: one run, a sweep, or several runs side by side.
+
+Every source becomes a list of ``ReportCell`` (labels + the rows of ``steps.parquet``). Several run
+directories are labelled by the scenario keys in which their ``config.toml`` differ (for example
+``demos.noise_fraction``), so separately launched runs report like a sweep.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+
+class ReportError(ValueError):
+    """A directory that cannot be reported on; the message is one line for the user."""
+
+
+@dataclass(frozen=True)
+class ReportCell:
+    """One run (or sweep cell): its labels, ε thresholds and per-step rows."""
+
+    labels: dict[str, Any]
+    thresholds: list[float]
+    steps: pd.DataFrame
+    scenario: str
+    directory: Path
+
+    @property
+    def title(self) -> str:
+        return ", ".join(f"{k.split('.')[-1]} = {v}" for k, v in self.labels.items()) or self.scenario
+
+
+def _config(directory: Path) -> dict[str, Any]:
+    path = directory / "config.toml"
+    try:
+        return tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ReportError(f"{directory}: not a run directory (no config.toml)") from None
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ReportError(f"{path}: cannot be read ({exc})") from None
+
+
+def _steps(directory: Path) -> pd.DataFrame:
+    path = directory / "steps.parquet"
+    if not path.is_file():
+        raise ReportError(f"{directory}: no steps.parquet (no replicate has finished; "
+                          "mjsuff run --resume continues a run)")
+    try:
+        steps = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises several types for damaged files
+        raise ReportError(f"{path}: cannot be read ({exc})") from None
+    needed = {"replicate", "rule", "param", "step", "bound", "true_nevd", "decision"}
+    if missing := needed - set(steps.columns):
+        raise ReportError(f"{path}: missing columns {sorted(missing)}")
+    return steps
+
+
+def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(data, dict):
+        out: dict[str, Any] = {}
+        for k, v in data.items():
+            out.update(_flatten(v, f"{prefix}{k}."))
+        return out
+    return {prefix.rstrip("."): json.dumps(data) if isinstance(data, list) else data}
+
+
+def _thresholds(config: dict[str, Any]) -> list[float]:
+    return [float(t) for t in config.get("rules", {}).get("nevd_thresholds", [])]
+
+
+def load_cells(directories: list[Path]) -> list[ReportCell]:
+    """The cells of one run or sweep directory, or of several run directories."""
+    if not directories:
+        raise ReportError("report: name at least one run directory")
+    if len(directories) == 1 and (directories[0] / "sweep.json").is_file():
+        top = directories[0]
+        sweep = json.loads((top / "sweep.json").read_text())
+        cells = []
+        for cell in sweep["cells"]:
+            directory = top / cell["directory"]
+            config = _config(directory)
+            cells.append(ReportCell(cell["labels"], _thresholds(config), _steps(directory),
+                                    config.get("name", top.name), directory))
+        return cells
+    configs = [_config(d) for d in directories]
+    flat = [_flatten({k: v for k, v in c.items() if k not in ("seed", "replicates", "name")})
+            for c in configs]
+    differing = sorted({k for f in flat for k in f if any(g.get(k) != f.get(k) for g in flat)})
+    return [ReportCell({k: f.get(k) for k in differing}, _thresholds(c), _steps(d),
+                       c.get("name", d.name), d)
+            for d, c, f in zip(directories, configs, flat, strict=True)]

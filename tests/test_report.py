@@ -1,0 +1,86 @@
+"""`mjsuff report`: figures and markdown from a sweep, statistics that agree with their
+definitions, clear errors for directories that are not runs."""
+
+import math
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from mjsuff.cli import main
+from mjsuff.experiment.measures import measure_group
+from mjsuff.experiment.runner import run_scenario
+from mjsuff.report import ReportError, compare_rules, load_cells
+from mjsuff.report.figures import f1_with_se, replicate_outcomes, rule_curves
+from tests.conftest import small_scenario
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def sweep_run(tmp_path_factory):
+    directory = tmp_path_factory.mktemp("sweep") / "run"
+    run_scenario(small_scenario(replicates=3, sweep={"demos.noise_fraction": [0.0, 0.4]}),
+                 directory, record=False)
+    return directory
+
+
+def test_report_writes_figures_linked_from_markdown(sweep_run, capsys):
+    assert main(["report", str(sweep_run)]) == 0
+    out = sweep_run / "report"
+    text = (out / "report.md").read_text()
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
+    assert {"bound_vs_demos.png", "noise_ablation.png", "f1_and_demos_00.png",
+            "f1_and_demos_01.png"} <= set(links)
+    for link in links:
+        assert (out / link).read_bytes()[:8] == PNG and (out / link).stat().st_size > 10_000
+    assert "Kruskal-Wallis" in text and "Dunn" in text and "noise_fraction = 0.4" in text
+    assert "report.md" in capsys.readouterr().out
+
+
+def test_f1_curves_agree_with_the_run_measures(sweep_run):
+    cell = load_cells([sweep_run])[0]
+    curves = rule_curves(cell)
+    for _, row in curves.iterrows():
+        group = cell.steps[(cell.steps["rule"] == row["rule"]) & (cell.steps["param"] == row["param"])]
+        m = measure_group(group, False, row["epsilon"])
+        assert (math.isnan(m["f1"]) and math.isnan(row["f1"])) or m["f1"] == pytest.approx(row["f1"])
+        assert m["demos_needed"] == pytest.approx(row["demos"])
+
+
+def test_bootstrap_se_of_f1():
+    rng = np.random.default_rng(0)
+    assert f1_with_se(np.zeros(20, int), rng) == (1.0, 0.0)  # every replicate a TP: no spread
+    f1, se = f1_with_se(np.array([0] * 10 + [1] * 5 + [2] * 5), rng)
+    assert f1 == pytest.approx(10 / 15) and 0.05 < se < 0.2
+
+
+def test_rule_comparison_matches_scipy_and_separates_groups():
+    rng = np.random.default_rng(1)
+    values = pd.DataFrame({"rule": ["nevd"] * 30 + ["patience"] * 30 + ["validation"] * 30,
+                           "demos": np.r_[rng.normal(3, 1, 30), rng.normal(3, 1, 30),
+                                          rng.normal(9, 1, 30)]})
+    result = compare_rules(values, "demos")
+    h, p = stats.kruskal(*(values.loc[values["rule"] == r, "demos"] for r in
+                           ("nevd", "patience", "validation")))
+    assert result.h == pytest.approx(h) and result.p == pytest.approx(p)
+    assert result.dunn.loc["nevd", "validation"] < 0.001  # far apart
+    assert result.dunn.loc["nevd", "patience"] > 0.05     # drawn from the same distribution
+    assert compare_rules(values.assign(demos=1.0), "demos") is None  # no variation: no test
+
+
+def test_outcomes_follow_the_stopping_step():
+    steps = pd.DataFrame({"replicate": [0, 0, 0, 1, 1, 1], "step": [1, 2, 3] * 2,
+                          "decision": [False, True, True, False, False, False],
+                          "true_nevd": [0.5, 0.1, 0.0, 0.5, 0.4, 0.05]})
+    codes, needed = replicate_outcomes(steps, 0.2)
+    assert codes.tolist() == [0, 2] and needed.tolist() == [2, 3]  # TP at 2; FN, ran to 3
+
+
+def test_not_a_run_is_a_clear_error(tmp_path, capsys):
+    with pytest.raises(ReportError, match=r"no config\.toml"):
+        load_cells([tmp_path])
+    assert main(["report", str(tmp_path)]) == 2
+    assert str(tmp_path) in capsys.readouterr().err
