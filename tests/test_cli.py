@@ -13,7 +13,7 @@ import pytest
 
 from mjsuff.cli import main
 from mjsuff.experiment import backends
-from mjsuff.experiment.results import OutputError
+from mjsuff.experiment.results import FILE_MODE, OutputError
 from mjsuff.experiment.runner import RECORDING, run_scenario
 from mjsuff.recording import Recording
 from tests.conftest import small_scenario
@@ -48,6 +48,9 @@ def test_run_writes_parseable_outputs(tmp_path):
             assert key in e
     config = (tmp_path / "r" / "config.toml").read_text()
     assert "num_samples = 60" in config and "rows = 5" in config
+    # Written through temporary files (created 0600), yet with the usual mode under the umask.
+    for name in ("config.toml", "steps.parquet", "summary.json", "run.json"):
+        assert (tmp_path / "r" / name).stat().st_mode & 0o777 == FILE_MODE
 
 
 def test_same_seed_gives_identical_summary(tmp_path):

@@ -106,7 +106,8 @@ class SerialBackend(Backend):
 
     name = "serial"
 
-    def run(self, tasks, on_step=None):
+    def run(self, tasks: list[ReplicateTask],
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
         for task in tasks:
             callback = None if on_step is None else (lambda s, m, t=task: on_step(t, s, m))
             yield task, execute(task, callback)
@@ -145,7 +146,8 @@ class LocalBackend(Backend):
     def describe(self) -> str:
         return f"local, {self.workers} worker process(es)"
 
-    def run(self, tasks, on_step=None):
+    def run(self, tasks: list[ReplicateTask],
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
         if not tasks:
             return
         workers = min(self.workers, len(tasks))
@@ -232,7 +234,8 @@ class RayBackend(Backend):
         except ConnectionError as exc:
             raise BackendError(f"--address {self.address}: cannot reach a Ray cluster ({exc})") from None
 
-    def run(self, tasks, on_step=None):
+    def run(self, tasks: list[ReplicateTask],
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
         if not tasks:
             return
         self._connect()
