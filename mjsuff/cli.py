@@ -135,6 +135,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         out.print(f"MuJoCo: {result.simulation['simulated_steps']:,} steps simulated; "
                   f"{result.simulation['diverged_rollouts']:,} diverged rollouts detected and "
                   "never scored", highlight=False)
+    if result.recording_error:
+        err.print(f"[yellow]warning:[/] the recording was not merged: {result.recording_error}",
+                  highlight=False, soft_wrap=True)
     recorded = "" if args.no_record else ", recording.rrd (mjsuff view DIR)"
     cells_note = " (per cell in cells/*/; sweep.json)" if result.cells else ""
     out.print(f"results: {directory}/steps.parquet, summary.json, config.toml{recorded}"

@@ -25,7 +25,8 @@ GRIDWORLD = str(Path(__file__).parent.parent / "scenarios" / "gridworld.toml")
 
 
 def run_cli(out, *extra):
-    args = ["run", GRIDWORLD, "--out", str(out), "--quiet"]
+    # Serial: monkeypatched code is seen (worker processes would import their own).
+    args = ["run", GRIDWORLD, "--out", str(out), "--quiet", "--backend", "serial"]
     for s in SMALL_SETS:
         args += ["--set", s]
     return main(args + list(extra))

@@ -82,6 +82,11 @@ def test_resume_can_add_replicates_and_refuses_a_different_scenario(tmp_path):
         run_scenario(small_scenario(replicates=2, **{"demos.beta": 5.0}), out, resume=True)
     with pytest.raises(OutputError, match=r"no config\.toml"):
         run_scenario(small_scenario(), tmp_path / "empty", resume=True)
+    with pytest.raises(OutputError, match="grow, not shrink"):
+        run_scenario(small_scenario(replicates=1), out, record=False, resume=True)
+    run_scenario(small_scenario(replicates=3), out, record=True, overwrite=True)
+    with pytest.raises(OutputError, match="without --no-record"):
+        run_scenario(small_scenario(replicates=4), out, record=False, resume=True)
 
 
 def test_resume_needs_out_and_a_non_empty_out_needs_a_choice(tmp_path, capsys):

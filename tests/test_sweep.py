@@ -6,8 +6,10 @@ import json
 import pandas as pd
 import pytest
 
+from mjsuff.experiment import backends
 from mjsuff.experiment.runner import run_scenario
 from mjsuff.experiment.scenario import ScenarioError, load_scenario
+from mjsuff.report import load_cells
 from tests.conftest import small_scenario
 
 
@@ -31,6 +33,41 @@ def test_each_cell_equals_its_single_run(tmp_path):
     # Noise happened: poor demos in the noisy cells only.
     poor = combined.groupby("demos.noise_fraction")["poor_demo"].any()
     assert not poor[0.0] and poor[0.3]
+
+
+def test_interrupted_sweep_keeps_and_summarizes_what_finished(tmp_path, monkeypatch):
+    real, calls = backends.run_replicate, []
+
+    def interrupt_third(scenario, replicate, *rest):
+        calls.append(replicate)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(scenario, replicate, *rest)
+
+    monkeypatch.setattr(backends, "run_replicate", interrupt_third)
+    scenario = small_scenario(sweep={"demos.beta": [5.0, 20.0]})
+    with pytest.raises(KeyboardInterrupt):
+        run_scenario(scenario, tmp_path / "s")
+    combined = pd.read_parquet(tmp_path / "s" / "steps.parquet")
+    assert combined.groupby("cell")["replicate"].nunique().to_dict() == {0: 2}
+    run = json.loads((tmp_path / "s" / "run.json").read_text())
+    assert run["interrupted"] and run["completed_replicates"] == 2
+    # A report covers the finished cell; resuming finishes the rest.
+    assert len(load_cells([tmp_path / "s"])) == 1
+    monkeypatch.setattr(backends, "run_replicate", real)
+    result = run_scenario(scenario, tmp_path / "s", resume=True)
+    assert result.completed == 4 and not result.interrupted
+
+
+def test_list_values_can_be_swept(tmp_path):
+    result = run_scenario(small_scenario(sweep={"rules.patience": [[1], [1, 2]]}), tmp_path / "s",
+                          record=False)
+    assert [c.result.directory.name for c in result.cells] == ["cell-00_patience=1",
+                                                               "cell-01_patience=1+2"]
+    combined = pd.read_parquet(tmp_path / "s" / "steps.parquet")
+    assert set(combined["rules.patience"]) == {"[1]", "[1, 2]"}
+    patience = combined[combined["rule"] == "patience"]
+    assert set(patience.loc[patience["cell"] == 1, "param"]) == {1.0, 2.0}
 
 
 @pytest.mark.parametrize(("line", "message"), [

@@ -2,7 +2,7 @@
 
 A replicate is a pure function of (scenario, replicate index, demo source): its randomness comes
 from its own seed streams (``replicate.seed_sequence``), so every backend gives the same rows for
-the same seeds. A backend takes a list of ``ReplicateTask`` and yields ``(task, rows)`` as each one
+the same seeds. A backend takes a list of ``ReplicateTask`` and yields ``(task, ReplicateResult)`` as each one
 finishes, in whatever order they finish; the runner writes each to disk at once.
 
 * ``SerialBackend`` — one at a time in this process, with per-step progress.
@@ -15,10 +15,12 @@ finishes, in whatever order they finish; the runner writes each to disk at once.
 from __future__ import annotations
 
 import abc
+import contextlib
 import multiprocessing
 import os
 import queue
 import signal
+import tempfile
 import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -44,47 +46,53 @@ class BackendError(RuntimeError):
 
 @dataclass(frozen=True)
 class ReplicateTask:
-    """One replicate of one scenario (a sweep cell), and where its recording goes.
+    """One replicate of one scenario (a sweep cell).
 
     Attributes:
-        key: The task's identity in the run (e.g. ``(cell, replicate)``), echoed back.
+        key: The task's identity in the run (``(cell, replicate)``), echoed back.
         scenario: The fully resolved scenario of the cell.
         replicate: Replicate index (selects the seed streams).
         demo_source: Saved demos replacing the live expert, or None.
-        recording: Path of this replicate's ``.rrd`` file, or None for no recording. It is
-            written under a temporary name and renamed when the replicate finishes.
+        record: Whether to make the replicate's Rerun recording.
     """
 
     key: tuple[int, int]
     scenario: Scenario
     replicate: int
     demo_source: DemoSource | None = None
-    recording: Path | None = None
+    record: bool = False
 
 
-def partial_path(path: Path) -> Path:
-    """Where an unfinished recording is written before it is renamed to ``path``."""
-    return path.with_name(f".{path.name}.partial")
+@dataclass(frozen=True)
+class ReplicateResult:
+    """What a finished task sends back: its rows and its recording (``.rrd`` bytes) if any.
+
+    The recording is streamed to a local temporary file while the replicate runs (memory does
+    not grow with it) and read back once at the end, so workers need no shared filesystem.
+    """
+
+    rows: list[dict[str, Any]]
+    recording: bytes | None = None
 
 
-def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> list[dict[str, Any]]:
+def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> ReplicateResult:
     """Run one task in this process (BLAS limited to one thread: the matrices are small)."""
-    recorder = None
-    if task.recording is not None:
-        from mjsuff.recording.recorder import RunRecorder  # Rerun only when recording
-
-        recorder = RunRecorder(partial_path(task.recording), task.scenario,
-                               default_layout=task.replicate == 0)
-    try:
+    if not task.record:
         with threadpool_limits(limits=1):
-            rows = run_replicate(task.scenario, task.replicate, on_step, task.demo_source,
-                                 recorder.replicate(task.replicate) if recorder else None)
-    finally:
-        if recorder is not None:
+            return ReplicateResult(run_replicate(task.scenario, task.replicate, on_step,
+                                                 task.demo_source))
+    from mjsuff.recording.recorder import RunRecorder  # Rerun only when recording
+
+    with tempfile.TemporaryDirectory(prefix="mjsuff-rec-") as tmp:
+        path = Path(tmp) / f"replicate-{task.replicate:05d}.rrd"
+        recorder = RunRecorder(path, task.scenario, default_layout=task.replicate == 0)
+        try:
+            with threadpool_limits(limits=1):
+                rows = run_replicate(task.scenario, task.replicate, on_step, task.demo_source,
+                                     recorder.replicate(task.replicate))
+        finally:
             recorder.close()
-    if task.recording is not None:
-        os.replace(partial_path(task.recording), task.recording)
-    return rows
+        return ReplicateResult(rows, path.read_bytes())
 
 
 class Backend(abc.ABC):
@@ -94,10 +102,11 @@ class Backend(abc.ABC):
 
     @abc.abstractmethod
     def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         """Run ``tasks``; on an exception or when the consumer stops, unstarted tasks are cancelled."""
 
     def describe(self) -> str:
+        """A short description for run.json and the summary line."""
         return self.name
 
 
@@ -107,10 +116,23 @@ class SerialBackend(Backend):
     name = "serial"
 
     def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         for task in tasks:
             callback = None if on_step is None else (lambda s, m, t=task: on_step(t, s, m))
             yield task, execute(task, callback)
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """Ignore SIGINT in this (main) thread while child processes start, so they inherit it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _worker_init(threads: int) -> None:
@@ -119,7 +141,7 @@ def _worker_init(threads: int) -> None:
     os.environ[SIM_THREADS_ENV] = str(threads)
 
 
-def _execute_reporting(task: ReplicateTask, events: Any) -> list[dict[str, Any]]:
+def _execute_reporting(task: ReplicateTask, events: Any) -> ReplicateResult:
     def report(step: int, max_demos: int) -> None:
         events.put((task.key, step, max_demos))
 
@@ -147,12 +169,15 @@ class LocalBackend(Backend):
         return f"local, {self.workers} worker process(es)"
 
     def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         if not tasks:
             return
         workers = min(self.workers, len(tasks))
         context = multiprocessing.get_context("spawn")
-        manager = context.Manager() if on_step is not None else None
+        # Children inherit an ignored SIGINT from the moment they start (before their slow
+        # imports): Ctrl-C is the parent's to handle.
+        with _sigint_ignored():
+            manager = context.Manager() if on_step is not None else None
         events = manager.Queue() if manager is not None else None
         by_key = {t.key: t for t in tasks}
         stop = threading.Event()
@@ -171,8 +196,9 @@ class LocalBackend(Backend):
         try:
             if drainer is not None:
                 drainer.start()
-            pending: dict[Future, ReplicateTask] = {
-                pool.submit(_execute_reporting, t, events): t for t in tasks}
+            with _sigint_ignored():  # worker processes start on the first submissions
+                pending: dict[Future, ReplicateTask] = {
+                    pool.submit(_execute_reporting, t, events): t for t in tasks}
             while pending:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for future in sorted(done, key=lambda f: pending[f].key):
@@ -235,7 +261,7 @@ class RayBackend(Backend):
             raise BackendError(f"--address {self.address}: cannot reach a Ray cluster ({exc})") from None
 
     def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, list[dict[str, Any]]]]:
+            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         if not tasks:
             return
         self._connect()
@@ -256,7 +282,7 @@ class RayBackend(Backend):
             self.ray.shutdown()
 
 
-def _ray_execute(task: ReplicateTask, threads: int) -> list[dict[str, Any]]:
+def _ray_execute(task: ReplicateTask, threads: int) -> ReplicateResult:
     os.environ[SIM_THREADS_ENV] = str(threads)
     return execute(task)
 

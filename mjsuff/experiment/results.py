@@ -84,7 +84,6 @@ def prepare_output(directory: Path, overwrite: bool, resume: bool = False) -> No
                           "in it or --overwrite to replace it")
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        (directory / "replicates").mkdir(exist_ok=True)
         probe = directory / ".write-probe"
         probe.write_text("ok")
         probe.unlink()

@@ -12,6 +12,7 @@ merged into the cell's ``recording.rrd`` (``rerun rrd merge``), which is then th
 
 from __future__ import annotations
 
+import json
 import platform
 import subprocess
 import sys
@@ -25,11 +26,12 @@ import numpy as np
 import pandas as pd
 
 from mjsuff import __version__
-from mjsuff.experiment.backends import Backend, ReplicateTask, SerialBackend, partial_path
+from mjsuff.experiment.backends import Backend, ReplicateTask, SerialBackend
 from mjsuff.experiment.measures import summarize
 from mjsuff.experiment.replicate import DemoSource
 from mjsuff.experiment.results import (
     OutputError,
+    atomic_write_bytes,
     atomic_write_parquet,
     atomic_write_text,
     prepare_output,
@@ -38,7 +40,7 @@ from mjsuff.experiment.results import (
     write_json,
     write_replicate,
 )
-from mjsuff.experiment.scenario import Scenario, SweepCell
+from mjsuff.experiment.scenario import Scenario, SweepCell, flat_keys
 
 #: A cell's merged Rerun recording, in its output directory.
 RECORDING = "recording.rrd"
@@ -60,10 +62,13 @@ class RunResult:
     summary: dict[str, Any]
     simulation: dict[str, int]
     cells: tuple[CellResult, ...] = ()
+    recording_error: str | None = None
 
 
 @dataclass(frozen=True)
 class CellResult:
+    """One sweep cell's labels (``{dotted key: value}``) and its run."""
+
     labels: dict[str, Any]
     result: RunResult
 
@@ -78,32 +83,43 @@ def simulation_totals(steps: pd.DataFrame) -> dict[str, int]:
     return {c: int(last[c].sum()) for c in columns}
 
 
-def merge_recordings(directory: Path) -> Path | None:
-    """Merge ``recording.rrd`` and the finished ``recordings/replicate-*.rrd`` into
-    ``recording.rrd`` (atomically), then drop the merged parts and any unfinished ones."""
+def merge_recordings(directory: Path) -> str | None:
+    """Merge ``recording.rrd`` and the parts ``recordings/replicate-*.rrd`` of finished replicates
+    into ``recording.rrd`` (atomically), then drop the merged parts and any orphans (a part whose
+    replicate's rows were never written). Returns None, or why the merge failed (parts kept)."""
     parts_dir = directory / RECORDINGS
-    parts = sorted(parts_dir.glob("replicate-*.rrd")) if parts_dir.is_dir() else []
-    for stale in parts_dir.glob(".*.partial") if parts_dir.is_dir() else []:
+    if not parts_dir.is_dir():
+        return None
+    parts = []
+    for part in sorted(parts_dir.glob("replicate-*.rrd")):
+        replicate = int(part.stem.removeprefix("replicate-"))
+        if replicate_path(directory, replicate).exists():
+            parts.append(part)
+        else:
+            part.unlink()
+    for stale in parts_dir.glob(".*.tmp"):
         stale.unlink(missing_ok=True)
     target = directory / RECORDING
     if not parts:
-        return target if target.exists() else None
-    inputs = ([target] if target.exists() else []) + parts
-    if len(inputs) == 1:
+        return None
+    if not target.exists() and len(parts) == 1:
         parts[0].replace(target)
-        return target
+        return None
+    inputs = ([target] if target.exists() else []) + parts
     tmp = directory / f".{RECORDING}.tmp"
-    done = subprocess.run([sys.executable, "-m", "rerun", "rrd", "merge", *map(str, inputs),
-                           "-o", str(tmp)], capture_output=True, text=True)
+    try:
+        done = subprocess.run([sys.executable, "-m", "rerun", "rrd", "merge", *map(str, inputs),
+                               "-o", str(tmp)], capture_output=True, text=True)
+    except OSError as exc:
+        return f"rerun rrd merge could not start ({exc})"
     if done.returncode != 0 or not tmp.exists():
         tmp.unlink(missing_ok=True)
-        raise OutputError(f"{directory}: merging the replicates' recordings failed "
-                          f"({done.stderr.strip().splitlines()[-1:] or 'no message'}); they are "
-                          f"kept in {parts_dir}")
+        last = (done.stderr.strip().splitlines() or ["no message"])[-1]
+        return f"rerun rrd merge failed ({last}); the parts are kept in {parts_dir}"
     tmp.replace(target)
     for part in parts:
         part.unlink()
-    return target
+    return None
 
 
 def _drop_empty(directory: Path) -> None:
@@ -112,11 +128,10 @@ def _drop_empty(directory: Path) -> None:
 
 
 def finalize(directory: Path, scenario: Scenario, started: float, interrupted: bool,
-             backend: str = "serial") -> RunResult:
-    """Combine a cell's finished replicates into ``steps.parquet``, ``summary.json``, ``run.json``
-    and merge its recordings."""
-    merge_recordings(directory)
-    _drop_empty(directory / RECORDINGS)
+             backend: str = "serial", recorded: bool = True) -> RunResult:
+    """Combine a cell's finished replicates into ``steps.parquet``, ``summary.json`` and
+    ``run.json``, then merge its recordings (a failed merge is reported in ``run.json`` and
+    ``RunResult.recording_error``, never at the cost of the results)."""
     steps = read_steps(directory)
     completed = int(steps["replicate"].nunique()) if not steps.empty else 0
     summary = summarize(steps, scenario.rules.nevd_thresholds) if completed else {
@@ -125,47 +140,60 @@ def finalize(directory: Path, scenario: Scenario, started: float, interrupted: b
         atomic_write_parquet(directory / "steps.parquet", steps)
     write_json(directory / "summary.json", {"scenario": scenario.name, **summary})
     simulation = simulation_totals(steps)
-    write_json(directory / "run.json", {
+    run = {
         "mjsuff_version": __version__,
         "python": platform.python_version(),
         "numpy": np.__version__,
         "seed": scenario.seed,
         "backend": backend,
+        "recorded": recorded,
         "planned_replicates": scenario.replicates,
         "completed_replicates": completed,
         "interrupted": interrupted,
         "elapsed_seconds": round(time.perf_counter() - started, 3),
         **simulation,
-    })
-    return RunResult(directory, completed, scenario.replicates, interrupted, summary, simulation)
+    }
+    write_json(directory / "run.json", run)
+    error = merge_recordings(directory)
+    _drop_empty(directory / RECORDINGS)
+    if error is not None:
+        write_json(directory / "run.json", {**run, "recording_error": error})
+    return RunResult(directory, completed, scenario.replicates, interrupted, summary, simulation,
+                     recording_error=error)
 
 
-def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(data, dict):
-        out: dict[str, Any] = {}
-        for k, v in data.items():
-            out.update(_flatten(v, f"{prefix}{k}."))
-        return out
-    return {prefix.rstrip("."): data}
-
-
-def check_resumable(directory: Path, scenario: Scenario) -> None:
-    """A run directory can be resumed with ``scenario``: same scenario apart from ``replicates``."""
+def check_resumable(directory: Path, scenario: Scenario, record: bool) -> None:
+    """A run directory can be resumed with ``scenario``: the same scenario apart from
+    ``replicates`` (which may grow, not shrink), recorded as before."""
     import tomllib
 
     config = directory / "config.toml"
     if not config.is_file():
         raise OutputError(f"{directory}: --resume: no config.toml here, so no run to resume")
     try:
-        old = _flatten(tomllib.loads(config.read_text()))
-    except (OSError, tomllib.TOMLDecodeError) as exc:
+        old = flat_keys(tomllib.loads(config.read_text()))
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise OutputError(f"{config}: --resume: cannot read the run's scenario ({exc})") from None
-    new = _flatten(tomllib.loads(scenario.to_toml()))
+    new = flat_keys(tomllib.loads(scenario.to_toml()))
     for key in sorted(set(old) | set(new)):
         if key != "replicates" and old.get(key) != new.get(key):
             raise OutputError(f"{directory}: --resume: the scenario differs from the run's "
                               f"config.toml at {key} ({old.get(key)!r} there, {new.get(key)!r} "
                               "now); resume with the same scenario and overrides")
+    done = [int(p.stem.removeprefix("replicate-"))
+            for p in directory.glob("**/replicates/replicate-*.parquet")]
+    if done and max(done) >= scenario.replicates:
+        raise OutputError(f"{directory}: --resume: the run already has replicate {max(done)}; "
+                          f"--replicates can grow, not shrink (got {scenario.replicates})")
+    for run_json in directory.glob("**/run.json"):
+        try:
+            was_recorded = json.loads(run_json.read_text()).get("recorded", True)
+        except (OSError, json.JSONDecodeError):
+            continue
+        if was_recorded != record:
+            flag = "without --no-record" if was_recorded else "with --no-record"
+            raise OutputError(f"{directory}: --resume: the run was started {flag}; resume it "
+                              "the same way, so its recording covers every replicate")
 
 
 def _cell_directory(directory: Path, cell: SweepCell, sweep: bool) -> Path:
@@ -202,17 +230,19 @@ def run_scenario(
     sweep = bool(scenario.sweep)
     if sweep and demo_sources:
         raise OutputError(f"{directory}: saved demos (--demos) cannot be used with a sweep")
+    if resume and demo_sources:
+        raise OutputError(f"{directory}: --resume cannot be combined with --demos (nothing "
+                          "records which demo files the first part of the run used)")
     if resume:
-        check_resumable(directory, scenario)
+        check_resumable(directory, scenario, record)
     prepare_output(directory, overwrite, resume)
     atomic_write_text(directory / "config.toml", scenario.to_toml())
     tasks: list[ReplicateTask] = []
     finished = 0
     for cell in cells:
         cell_dir = _cell_directory(directory, cell, sweep)
+        (cell_dir / "replicates").mkdir(parents=True, exist_ok=True)
         if sweep:
-            cell_dir.mkdir(parents=True, exist_ok=True)
-            (cell_dir / "replicates").mkdir(exist_ok=True)
             atomic_write_text(cell_dir / "config.toml", cell.scenario.to_toml())
         if record:
             (cell_dir / RECORDINGS).mkdir(exist_ok=True)
@@ -220,11 +250,8 @@ def run_scenario(
             if replicate_path(cell_dir, replicate).exists():
                 finished += 1
                 continue
-            recording = (cell_dir / RECORDINGS / f"replicate-{replicate:05d}.rrd") if record else None
-            if recording is not None:
-                partial_path(recording).unlink(missing_ok=True)
             tasks.append(ReplicateTask((cell.index, replicate), cell.scenario, replicate,
-                                       (demo_sources or {}).get(replicate), recording))
+                                       (demo_sources or {}).get(replicate), record))
     if sweep:
         write_json(directory / "sweep.json", {"keys": list(scenario.sweep), "cells": [
             {"index": c.index, "labels": c.labels,
@@ -234,21 +261,27 @@ def run_scenario(
     planned = len(cells) * scenario.replicates
     started = time.perf_counter()
     fractions: dict[tuple[int, int], float] = {}
+    done_keys: set[tuple[int, int]] = set()
 
     def report() -> None:
         if progress is not None:
             progress(finished, planned, finished + sum(fractions.values()))
 
     def on_step(task: ReplicateTask, step: int, max_demos: int) -> None:
-        fractions[task.key] = step / max_demos
-        report()
+        if task.key not in done_keys:  # a late event from a worker must not count twice
+            fractions[task.key] = step / max_demos
+            report()
 
     report()
     interrupted = True
     try:
-        for task, rows in backend.run(tasks, on_step if progress is not None else None):
-            write_replicate(_cell_directory(directory, cells[task.key[0]], sweep),
-                            task.replicate, rows)
+        for task, result in backend.run(tasks, on_step if progress is not None else None):
+            cell_dir = _cell_directory(directory, cells[task.key[0]], sweep)
+            write_replicate(cell_dir, task.replicate, result.rows)
+            if result.recording is not None:  # after the rows: a part always has its rows
+                atomic_write_bytes(cell_dir / RECORDINGS / f"replicate-{task.replicate:05d}.rrd",
+                                   result.recording)
+            done_keys.add(task.key)
             fractions.pop(task.key, None)
             finished += 1
             report()
@@ -257,15 +290,16 @@ def run_scenario(
         # Ctrl-C, or anything failing mid-run (e.g. a saved demo set without the demo asked
         # for): the finished replicates are summarized before the error goes up.
         results = [CellResult(c.labels, finalize(_cell_directory(directory, c, sweep), c.scenario,
-                                                 started, interrupted, backend.describe()))
+                                                 started, interrupted, backend.describe(), record))
                    for c in cells]
-    if not sweep:
-        return results[0].result
-    return finalize_sweep(directory, scenario, results, started, interrupted, backend.describe())
+        total = (results[0].result if not sweep else
+                 finalize_sweep(directory, scenario, results, started, interrupted,
+                                backend.describe(), record))
+    return total
 
 
 def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult], started: float,
-                   interrupted: bool, backend: str) -> RunResult:
+                   interrupted: bool, backend: str, recorded: bool = True) -> RunResult:
     """The top level of a sweep: every cell's steps in one ``steps.parquet`` (with a ``cell``
     column and one column per sweep key), ``summary.json`` with each cell's summary, ``run.json``."""
     frames = []
@@ -274,8 +308,9 @@ def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult
         if steps.empty:
             continue
         steps.insert(0, "cell", index)
-        for key, value in cell.labels.items():
-            steps.insert(1, key, value)
+        for key, value in cell.labels.items():  # lists and tables as their JSON text
+            steps.insert(1, key, value if isinstance(value, str | int | float | bool)
+                         else json.dumps(value))
         frames.append(steps)
     if frames:
         atomic_write_parquet(directory / "steps.parquet", pd.concat(frames, ignore_index=True))
@@ -289,6 +324,7 @@ def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult
         "python": platform.python_version(),
         "seed": scenario.seed,
         "backend": backend,
+        "recorded": recorded,
         "cells": len(results),
         "planned_replicates": scenario.replicates * len(results),
         "completed_replicates": completed,
@@ -296,5 +332,7 @@ def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult
         "elapsed_seconds": round(time.perf_counter() - started, 3),
         **simulation,
     })
+    errors = [c.result.recording_error for c in results if c.result.recording_error]
     return RunResult(directory, completed, scenario.replicates * len(results), interrupted,
-                     {"entries": [], "nevd_bound_by_step": []}, simulation, tuple(results))
+                     {"entries": [], "nevd_bound_by_step": []}, simulation, tuple(results),
+                     errors[0] if errors else None)

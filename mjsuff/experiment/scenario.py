@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import itertools
+import json
 import math
 import re
 import tomllib
@@ -142,6 +143,16 @@ class Scenario(_Strict):
         return tomli_w.dumps(data)
 
 
+def flat_keys(data: Any, prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}}`` -> ``{"a.b": 1}``; lists become their JSON text (comparable, hashable)."""
+    if isinstance(data, dict):
+        out: dict[str, Any] = {}
+        for k, v in data.items():
+            out.update(flat_keys(v, f"{prefix}{k}."))
+        return out
+    return {prefix.rstrip("."): json.dumps(data) if isinstance(data, list) else data}
+
+
 _UNSWEEPABLE = {"name", "seed", "replicates", "sweep"}
 
 
@@ -170,7 +181,10 @@ class SweepCell:
     @property
     def dirname(self) -> str:
         """``cell-NN_key=value_...`` (the last part of each key), safe as a directory name."""
-        parts = [f"{k.split('.')[-1]}={v}" for k, v in self.labels.items()]
+        def text(v: Any) -> str:
+            return "+".join(map(str, v)) if isinstance(v, list) else str(v)
+
+        parts = [f"{k.split('.')[-1]}={text(v)}" for k, v in self.labels.items()]
         name = "_".join([f"cell-{self.index:02d}", *parts])
         return re.sub(r"[^A-Za-z0-9_.=+-]", "-", name)
 

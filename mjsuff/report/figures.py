@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -72,7 +73,8 @@ def rule_curves(cell: ReportCell, seed: int = 0) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _band(ax, x, y, se, colour, label, style="-") -> None:
+def _band(ax: plt.Axes, x: Any, y: Any, se: Any, colour: Any, label: str, style: str = "-") -> None:
+    """A line with markers and a ±``se`` band."""
     x, y, se = np.asarray(x), np.asarray(y, float), np.nan_to_num(np.asarray(se, float))
     ax.plot(x, y, style, color=colour, marker="o", markersize=3, label=label)
     ax.fill_between(x, y - se, y + se, color=colour, alpha=0.15, linewidth=0)
@@ -113,6 +115,7 @@ def f1_and_demos(cell: ReportCell, path: Path) -> Path:
 
 
 def bound_curve(cell: ReportCell) -> pd.DataFrame:
+    """Per demo count: mean and SEM of the nEVD bound and of π_MAP's true nEVD."""
     nevd = cell.steps[cell.steps["rule"] == "nevd"]
     nevd = nevd[nevd["param"] == nevd["param"].min()]
     out = nevd.groupby("step").agg(bound=("bound", "mean"), bound_sd=("bound", "std"),
@@ -147,11 +150,14 @@ NOISE_KEY = "demos.noise_fraction"
 
 
 def noise_table(cells: list[ReportCell]) -> pd.DataFrame:
-    """The nEVD rule's accuracy, TPR, FPR, F1 per noise fraction and ε (cells without a noise
-    label are left out; other labels must be shared)."""
+    """The nEVD rule's accuracy, TPR, FPR, F1 per noise fraction and ε. Only cells with a noise
+    label whose other labels equal the first such cell's are used (in a noise × β sweep: the
+    noise series at the first β)."""
     rows = []
-    for cell in cells:
-        if NOISE_KEY not in cell.labels:
+    noisy = [c for c in cells if NOISE_KEY in c.labels]
+    others = ({k: v for k, v in noisy[0].labels.items() if k != NOISE_KEY} if noisy else {})
+    for cell in noisy:
+        if {k: v for k, v in cell.labels.items() if k != NOISE_KEY} != others:
             continue
         nevd = cell.steps[cell.steps["rule"] == "nevd"]
         for eps, group in nevd.groupby("param"):

@@ -18,7 +18,7 @@ from mjsuff.report.figures import (
     noise_table,
     rule_curves,
 )
-from mjsuff.report.results import ReportCell, load_cells
+from mjsuff.report.results import ReportCell, ReportError, load_cells
 from mjsuff.report.statistics import RuleComparison, compare_rules, observations
 
 
@@ -74,6 +74,7 @@ def accuracy_table(cell: ReportCell) -> str:
 
 
 def comparison_text(comparison: RuleComparison | None, what: str) -> str:
+    """Kruskal-Wallis, the medians and Dunn's adjusted p-values, as markdown."""
     if comparison is None:
         return f"{what}: not enough variation between rules for a test.\n"
     medians = ", ".join(f"{NAMES[r]} {m:g}" for r, m in comparison.medians().items())
@@ -92,7 +93,12 @@ def comparison_text(comparison: RuleComparison | None, what: str) -> str:
 def write_report(directories: list[Path], out: Path) -> Path:
     """Write figures and ``report.md`` for the runs in ``directories`` into ``out``."""
     cells = load_cells(directories)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / ".write-probe").write_text("ok")
+        (out / ".write-probe").unlink()
+    except OSError as exc:
+        raise ReportError(f"{out}: --out is not writable ({exc.strerror or exc})") from None
     parts = ["# mjsuff report", "",
              "Sources: " + ", ".join(f"`{d}`" for d in directories), ""]
     bound_fig = bound_vs_demos(cells, out / "bound_vs_demos.png")

@@ -15,6 +15,8 @@ from typing import Any
 
 import pandas as pd
 
+from mjsuff.experiment.scenario import flat_keys
+
 
 class ReportError(ValueError):
     """A directory that cannot be reported on; the message is one line for the user."""
@@ -54,41 +56,47 @@ def _steps(directory: Path) -> pd.DataFrame:
         steps = pd.read_parquet(path)
     except Exception as exc:  # pyarrow raises several types for damaged files
         raise ReportError(f"{path}: cannot be read ({exc})") from None
-    needed = {"replicate", "rule", "param", "step", "bound", "true_nevd", "decision"}
+    needed = {"replicate", "rule", "param", "step", "bound", "true_value", "true_nevd",
+              "true_piob", "decision", "pool_size", "policy_optimality"}
     if missing := needed - set(steps.columns):
         raise ReportError(f"{path}: missing columns {sorted(missing)}")
     return steps
-
-
-def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(data, dict):
-        out: dict[str, Any] = {}
-        for k, v in data.items():
-            out.update(_flatten(v, f"{prefix}{k}."))
-        return out
-    return {prefix.rstrip("."): json.dumps(data) if isinstance(data, list) else data}
 
 
 def _thresholds(config: dict[str, Any]) -> list[float]:
     return [float(t) for t in config.get("rules", {}).get("nevd_thresholds", [])]
 
 
+def _sweep_cells(top: Path) -> list[ReportCell]:
+    try:
+        sweep = json.loads((top / "sweep.json").read_text())
+        listed = [(c["labels"], top / c["directory"]) for c in sweep["cells"]]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ReportError(f"{top / 'sweep.json'}: not a sweep description ({exc})") from None
+    cells = []
+    for labels, directory in listed:
+        if not (directory / "steps.parquet").is_file():
+            continue  # a cell with no finished replicate (an interrupted sweep)
+        config = _config(directory)
+        cells.append(ReportCell(labels, _thresholds(config), _steps(directory),
+                                config.get("name", top.name), directory))
+    if not cells:
+        raise ReportError(f"{top}: no sweep cell has a finished replicate yet")
+    return cells
+
+
 def load_cells(directories: list[Path]) -> list[ReportCell]:
-    """The cells of one run or sweep directory, or of several run directories."""
+    """The cells of one run or sweep directory, or of several run directories (labelled by the
+    scenario keys in which they differ)."""
     if not directories:
         raise ReportError("report: name at least one run directory")
     if len(directories) == 1 and (directories[0] / "sweep.json").is_file():
-        top = directories[0]
-        sweep = json.loads((top / "sweep.json").read_text())
-        cells = []
-        for cell in sweep["cells"]:
-            directory = top / cell["directory"]
-            config = _config(directory)
-            cells.append(ReportCell(cell["labels"], _thresholds(config), _steps(directory),
-                                    config.get("name", top.name), directory))
-        return cells
+        return _sweep_cells(directories[0])
+    for d in directories:
+        if (d / "sweep.json").is_file():
+            raise ReportError(f"{d}: a sweep; report it on its own (mjsuff report {d})")
     configs = [_config(d) for d in directories]
-    flat = [_flatten({k: v for k, v in c.items() if k not in ("seed", "replicates", "name")})
+    flat = [flat_keys({k: v for k, v in c.items() if k not in ("seed", "replicates", "name")})
             for c in configs]
     differing = sorted({k for f in flat for k in f if any(g.get(k) != f.get(k) for g in flat)})
     return [ReportCell({k: f.get(k) for k in differing}, _thresholds(c), _steps(d),

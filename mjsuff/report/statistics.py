@@ -2,8 +2,9 @@
 the Bonferroni correction (``scikit_posthocs.posthoc_dunn``), with the medians compared.
 
 * H1 (F1): one observation per rule parameter and threshold ε — the F1 of that rule at ε.
-* H2 (sample efficiency): one observation per replicate, rule parameter and ε — the demos the
-  rule needed.
+* H2 (sample efficiency): the demos each replicate needed — one observation per replicate and
+  rule parameter (for the nEVD rule its parameter is ε; a baseline stops where it stops whatever
+  ε is, so it is not repeated per ε).
 
 The bound rules and the baselines form the groups (``nevd``, ``patience`` i.e. convergence,
 ``validation``); the PIOB rule answers a different question and is left out, as in the paper.
@@ -49,16 +50,14 @@ def _stopping_steps(group: pd.DataFrame) -> pd.Series:
 
 
 def observations(steps: pd.DataFrame, thresholds: list[float]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(F1 per rule, param, ε), (demos needed per rule, param, ε, replicate)."""
+    """(F1 per rule, param and ε), (demos needed per rule, param and replicate)."""
     f1_rows, demo_rows = [], []
     for (rule, param), group in steps[steps["rule"].isin(RULES)].groupby(["rule", "param"]):
-        epsilons = [float(param)] if rule == "nevd" else thresholds
-        needed = _stopping_steps(group)
-        for eps in epsilons:
+        for eps in [float(param)] if rule == "nevd" else thresholds:
             f1 = measure_group(group, False, eps)["f1"]
             f1_rows.append({"rule": rule, "param": param, "epsilon": eps, "f1": f1})
-            demo_rows += [{"rule": rule, "param": param, "epsilon": eps, "replicate": r,
-                           "demos": int(n)} for r, n in needed.items()]
+        demo_rows += [{"rule": rule, "param": param, "replicate": r, "demos": int(n)}
+                      for r, n in _stopping_steps(group).items()]
     return pd.DataFrame(f1_rows), pd.DataFrame(demo_rows)
 
 
