@@ -34,7 +34,14 @@ class ReportCell:
 
     @property
     def title(self) -> str:
-        return ", ".join(f"{k.split('.')[-1]} = {v}" for k, v in self.labels.items()) or self.scenario
+        """The scenario's name and up to three labels (a domain's own parameters are implied by
+        its name, and left out when the domains differ)."""
+        labels = self.labels
+        if "domain.name" in labels:
+            labels = {k: v for k, v in labels.items()
+                      if not k.startswith("domain.params") and "tolerance" not in k}
+        shown = [f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if k != "domain.name"]
+        return ", ".join([self.scenario, *shown[:3]] + (["…"] if len(shown) > 3 else []))
 
 
 def _config(directory: Path) -> dict[str, Any]:
