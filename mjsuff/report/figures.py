@@ -173,7 +173,7 @@ def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
     table = noise_table(cells)
     if table.empty or table["noise"].nunique() < 2:
         return None
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2), sharex=True)
     cmap = plt.get_cmap("viridis")
     epsilons = sorted(table["epsilon"].unique())
     for ax, measure, title in zip(axes, ("accuracy", "tpr", "fpr"),
@@ -185,6 +185,8 @@ def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
                     color=cmap(i / max(1, len(epsilons) - 1)), label=f"ε = {eps:g}")
         ax.set(xlabel="share of poor demos", title=title, ylim=(-0.02, 1.05))
     axes[-1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    axes[-1].annotate("no point: no truly insufficient step", (0.02, 0.95), fontsize=7,
+                      xycoords="axes fraction", color="grey", va="top")
     fig.tight_layout()
     fig.savefig(path, bbox_inches="tight")
     plt.close(fig)

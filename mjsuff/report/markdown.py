@@ -77,7 +77,7 @@ def comparison_text(comparison: RuleComparison | None, what: str) -> str:
     """Kruskal-Wallis, the medians and Dunn's adjusted p-values, as markdown."""
     if comparison is None:
         return f"{what}: not enough variation between rules for a test.\n"
-    medians = ", ".join(f"{NAMES[r]} {m:g}" for r, m in comparison.medians().items())
+    medians = ", ".join(f"{NAMES[r]} {m:.3g}" for r, m in comparison.medians().items())
     counts = ", ".join(f"{NAMES[r]} n = {v.size}" for r, v in comparison.groups.items())
     lines = [f"{what}: Kruskal-Wallis H = {comparison.h:.1f}, p {_p(comparison.p)} "
              f"({counts}); medians: {medians}.", "",
@@ -106,7 +106,7 @@ def write_report(directories: list[Path], out: Path) -> Path:
         replicates = cell.steps["replicate"].nunique()
         figure = f1_and_demos(cell, out / f"f1_and_demos_{i:02d}.png")
         f1_obs, demo_obs = observations(cell.steps, cell.thresholds)
-        parts += [f"## {cell.title} ({cell.scenario}, {replicates} replicates)", "",
+        parts += [f"## {cell.title} ({replicates} replicates)", "",
                   f"![F1 and demos needed vs. ε]({figure.name})", "",
                   "F1 / demos needed per rule and threshold (baselines scored at every ε):", "",
                   rule_table(cell), "The nEVD rule:", "", accuracy_table(cell),
