@@ -45,6 +45,17 @@ def _truth(frame: pd.DataFrame, improvement: bool, threshold: float) -> np.ndarr
     return frame["true_nevd"].to_numpy() <= threshold
 
 
+def evaluated_rows(frame: pd.DataFrame) -> pd.DataFrame:
+    """One rule's row per replicate at which it is evaluated: its first step declaring
+    sufficiency, else its last step; ``stopped`` says which (sorted by replicate)."""
+    frame = frame.sort_values(["replicate", "step"])
+    first = frame[frame["decision"].to_numpy(bool)].groupby("replicate", sort=True).head(1)
+    last = frame.groupby("replicate", sort=True).tail(1)
+    rows = pd.concat([first, last[~last["replicate"].isin(first["replicate"])]])
+    rows = rows.assign(stopped=rows["replicate"].isin(first["replicate"]))
+    return rows.sort_values("replicate", kind="stable")
+
+
 def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> dict[str, Any]:
     """All measures for one rule and parameter, against the truth threshold ``threshold``."""
     frame = frame.sort_values(["replicate", "step"])
@@ -55,30 +66,24 @@ def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> d
     step_fn = int((~decision & truth).sum())
     step_tn = int((~decision & ~truth).sum())
 
-    tp = fp = fn = tn = 0
-    needed, fractions, optimality, accurate, errors, stopped = [], [], [], [], [], []
-    for _, rep in frame.groupby("replicate", sort=True):
-        hits = np.flatnonzero(rep["decision"].to_numpy())
-        row = rep.iloc[hits[0]] if hits.size else rep.iloc[-1]
-        good = bool(_truth(row.to_frame().T, improvement, threshold)[0])
-        if hits.size:
-            tp, fp = tp + good, fp + (not good)
-        else:
-            fn, tn = fn + good, tn + (not good)
-        stopped.append(bool(hits.size))
-        needed.append(int(row["step"]))
-        fractions.append(int(row["step"]) / int(row["pool_size"]))
-        optimality.append(float(row["policy_optimality"]))
-        bound, true = float(row["bound"]), float(row["true_value"])
-        if not math.isnan(bound):
-            accurate.append(bound <= true if improvement else bound >= true)
-            errors.append(bound - true)
+    rows = evaluated_rows(frame)
+    good = _truth(rows, improvement, threshold)
+    stopped = rows["stopped"].to_numpy(bool)
+    tp, fp = int((stopped & good).sum()), int((stopped & ~good).sum())
+    fn, tn = int((~stopped & good).sum()), int((~stopped & ~good).sum())
+    needed = rows["step"].to_numpy(int)
+    fractions = needed / rows["pool_size"].to_numpy(int)
+    optimality = rows["policy_optimality"].to_numpy(float)
+    bound, true = rows["bound"].to_numpy(float), rows["true_value"].to_numpy(float)
+    known = ~np.isnan(bound)
+    accurate = (bound <= true if improvement else bound >= true)[known]
+    errors = (bound - true)[known]
     needed_arr = np.array(needed, dtype=float)
     return {
         "replicates": len(needed),
         "f1": _f1(tp, fp, fn),
-        "accuracy": float(np.mean(accurate)) if accurate else math.nan,
-        "bound_error": float(np.mean(errors)) if errors else math.nan,
+        "accuracy": float(np.mean(accurate)) if accurate.size else math.nan,
+        "bound_error": float(np.mean(errors)) if errors.size else math.nan,
         "demos_needed": float(needed_arr.mean()),
         "demos_needed_sem": _sem(needed_arr),
         "fraction_of_states": float(np.mean(fractions)),

@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from mjsuff.experiment.measures import measure_group
+from mjsuff.experiment.measures import evaluated_rows, measure_group
 from mjsuff.report.results import ReportCell
 
 COLOURS = {"nevd": "#1f77b4", "patience": "#d62728", "validation": "#2ca02c", "piob": "#9467bd"}
@@ -35,14 +35,10 @@ plt.rcParams.update({"font.size": 10, "axes.spines.top": False, "axes.spines.rig
 
 def replicate_outcomes(group: pd.DataFrame, eps: float) -> tuple[np.ndarray, np.ndarray]:
     """Per replicate: outcome code (0 TP, 1 FP, 2 FN, 3 TN) at ε and demos needed."""
-    codes, needed = [], []
-    for _, rep in group.sort_values(["replicate", "step"]).groupby("replicate", sort=True):
-        hits = np.flatnonzero(rep["decision"].to_numpy())
-        row = rep.iloc[hits[0]] if hits.size else rep.iloc[-1]
-        good = float(row["true_nevd"]) <= eps
-        codes.append((0 if good else 1) if hits.size else (2 if good else 3))
-        needed.append(int(row["step"]))
-    return np.array(codes), np.array(needed, dtype=float)
+    rows = evaluated_rows(group)
+    good = rows["true_nevd"].to_numpy(float) <= eps
+    codes = np.where(rows["stopped"].to_numpy(bool), np.where(good, 0, 1), np.where(good, 2, 3))
+    return codes, rows["step"].to_numpy(float)
 
 
 def f1_with_se(codes: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:

@@ -20,7 +20,7 @@ import pandas as pd
 import scikit_posthocs
 from scipy import stats
 
-from mjsuff.experiment.measures import measure_group
+from mjsuff.experiment.measures import evaluated_rows, measure_group
 
 RULES = ("nevd", "patience", "validation")
 
@@ -39,16 +39,6 @@ class RuleComparison:
         return {k: float(np.median(v)) for k, v in self.groups.items()}
 
 
-def _stopping_steps(group: pd.DataFrame) -> pd.Series:
-    """Demos each replicate needed (first step with a 'sufficient' decision, else the last)."""
-    def first(rep: pd.DataFrame) -> int:
-        rep = rep.sort_values("step")
-        hits = rep["step"][rep["decision"].to_numpy()]
-        return int(hits.iloc[0]) if len(hits) else int(rep["step"].iloc[-1])
-
-    return group.groupby("replicate").apply(first, include_groups=False)
-
-
 def observations(steps: pd.DataFrame, thresholds: list[float]) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(F1 per rule, param and ε), (demos needed per rule, param and replicate)."""
     f1_rows, demo_rows = [], []
@@ -56,8 +46,9 @@ def observations(steps: pd.DataFrame, thresholds: list[float]) -> tuple[pd.DataF
         for eps in [float(param)] if rule == "nevd" else thresholds:
             f1 = measure_group(group, False, eps)["f1"]
             f1_rows.append({"rule": rule, "param": param, "epsilon": eps, "f1": f1})
+        rows = evaluated_rows(group)
         demo_rows += [{"rule": rule, "param": param, "replicate": r, "demos": int(n)}
-                      for r, n in _stopping_steps(group).items()]
+                      for r, n in zip(rows["replicate"], rows["step"], strict=True)]
     return pd.DataFrame(f1_rows), pd.DataFrame(demo_rows)
 
 
