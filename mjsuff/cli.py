@@ -302,9 +302,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "the live expert; repeat for more replicates")
     run.add_argument("--no-record", action="store_true",
                      help="do not write the Rerun recording DIR/recording.rrd")
-    run.add_argument("--overwrite", action="store_true",
-                     help="replace the results in a non-empty --out directory")
-    run.add_argument("--resume", action="store_true",
+    existing = run.add_mutually_exclusive_group()
+    existing.add_argument("--overwrite", action="store_true",
+                          help="replace the results in a non-empty --out directory")
+    existing.add_argument("--resume", action="store_true",
                      help="continue the run in --out: keep its finished replicates, run the rest "
                           "(the scenario must match its config.toml; --replicates may grow)")
     run.add_argument("--backend", choices=("local", "serial", "ray"), default="local",

@@ -5,9 +5,10 @@ local worker processes or Ray) and each is written to disk the moment it finishe
 loses only the replicates that were running; ``resume=True`` continues it without redoing or
 duplicating any finished replicate.
 
-Recordings: each replicate records into ``recordings/replicate-NNNNN.rrd`` of its cell (renamed
-from a temporary name when it finishes); when the run ends, however it ends, the finished ones are
-merged into the cell's ``recording.rrd`` (``rerun rrd merge``), which is then the one file to open.
+Recordings: each replicate's recording comes back from the backend with its rows and is written,
+after them, to ``recordings/replicate-NNNNN.rrd`` of its cell; when the run ends, however it ends,
+those parts are merged into the cell's ``recording.rrd`` (``rerun rrd merge``), the one file to
+open.
 """
 
 from __future__ import annotations
@@ -140,19 +141,9 @@ def finalize(directory: Path, scenario: Scenario, started: float, interrupted: b
         atomic_write_parquet(directory / "steps.parquet", steps)
     write_json(directory / "summary.json", {"scenario": scenario.name, **summary})
     simulation = simulation_totals(steps)
-    run = {
-        "mjsuff_version": __version__,
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "seed": scenario.seed,
-        "backend": backend,
-        "recorded": recorded,
-        "planned_replicates": scenario.replicates,
-        "completed_replicates": completed,
-        "interrupted": interrupted,
-        "elapsed_seconds": round(time.perf_counter() - started, 3),
-        **simulation,
-    }
+    run = {**_run_info(scenario, backend, recorded, started, interrupted),
+           "planned_replicates": scenario.replicates, "completed_replicates": completed,
+           **simulation}
     write_json(directory / "run.json", run)
     error = merge_recordings(directory)
     _drop_empty(directory / RECORDINGS)
@@ -160,6 +151,21 @@ def finalize(directory: Path, scenario: Scenario, started: float, interrupted: b
         write_json(directory / "run.json", {**run, "recording_error": error})
     return RunResult(directory, completed, scenario.replicates, interrupted, summary, simulation,
                      recording_error=error)
+
+
+def _run_info(scenario: Scenario, backend: str, recorded: bool, started: float,
+              interrupted: bool) -> dict[str, Any]:
+    """The fields every ``run.json`` starts with."""
+    return {
+        "mjsuff_version": __version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "seed": scenario.seed,
+        "backend": backend,
+        "recorded": recorded,
+        "interrupted": interrupted,
+        "elapsed_seconds": round(time.perf_counter() - started, 3),
+    }
 
 
 def check_resumable(directory: Path, scenario: Scenario, record: bool) -> None:
@@ -320,18 +326,9 @@ def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult
     simulation = {k: sum(c.result.simulation[k] for c in results)
                   for k in ("simulated_steps", "diverged_rollouts")}
     write_json(directory / "run.json", {
-        "mjsuff_version": __version__,
-        "python": platform.python_version(),
-        "seed": scenario.seed,
-        "backend": backend,
-        "recorded": recorded,
-        "cells": len(results),
-        "planned_replicates": scenario.replicates * len(results),
-        "completed_replicates": completed,
-        "interrupted": interrupted,
-        "elapsed_seconds": round(time.perf_counter() - started, 3),
-        **simulation,
-    })
+        **_run_info(scenario, backend, recorded, started, interrupted), "cells": len(results),
+        "planned_replicates": scenario.replicates * len(results), "completed_replicates": completed,
+        **simulation})
     errors = [c.result.recording_error for c in results if c.result.recording_error]
     return RunResult(directory, completed, scenario.replicates * len(results), interrupted,
                      {"entries": [], "nevd_bound_by_step": []}, simulation, tuple(results),
