@@ -221,6 +221,66 @@ def cmd_demos(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    import json
+
+    from mjsuff.experiment.calibration import InstanceCalibration, calibrate
+    from mjsuff.posterior.calibration import BetaFit, CalibrationError
+
+    scenario = _load(args)
+    if scenario is None:
+        return EXIT_USAGE
+    if args.instances < 1:
+        err.print(f"[red]error:[/] --instances: expected a positive number, got {args.instances}",
+                  highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    if args.json and Path(args.json).suffix != ".json":
+        err.print(f"[red]error:[/] --json {args.json}: expected a .json file name",
+                  highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+
+    def show(fit: BetaFit) -> str:
+        if fit.unbounded:
+            return f"unbounded (> {fit.beta:g})"
+        return f"{fit.beta:.1f} ± {fit.standard_error:.1f}"
+
+    table = Table(title=f"β by maximum likelihood under w*, {scenario.name} "
+                        f"(β in the scenario: {scenario.demos.beta:g})")
+    for col in ("instance", "demos", "poor", "β̂", "log-lik.", "demo beaten by"):
+        table.add_column(col, justify="right")
+    progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
+                        console=err, disable=args.quiet)
+    task = progress.add_task("calibration instances", total=args.instances)
+
+    def on_instance(c: InstanceCalibration) -> None:
+        table.add_row(str(c.instance), str(c.demos), str(c.poor_demos), show(c.fit),
+                      f"{c.fit.log_likelihood:.2f}",
+                      " ".join(map(str, c.beaten_by)) if c.beaten_by else "–")
+        progress.advance(task)
+
+    try:
+        with progress:
+            result = calibrate(scenario, args.instances, on_instance)
+    except (CalibrationError, ValueError) as exc:
+        err.print(f"[red]error:[/] {args.scenario}: {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        err.print("interrupted: nothing written", highlight=False, soft_wrap=True)
+        return EXIT_INTERRUPTED
+    if not args.quiet:
+        out.print(table)
+    out.print(f"pooled over {args.instances} instance(s): β̂ = {show(result.pooled)}",
+              highlight=False, soft_wrap=True)
+    if args.json:
+        from mjsuff.experiment.results import atomic_write_text
+
+        payload = {"scenario": str(args.scenario), "seed": scenario.seed, **result.to_dict()}
+        atomic_write_text(Path(args.json), json.dumps(payload, indent=2) + "\n")
+        out.print(f"calibration: {args.json}", highlight=False, soft_wrap=True)
+    return 0
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     from mjsuff.report import ReportError, write_report  # matplotlib only when asked for
 
@@ -334,6 +394,22 @@ def build_parser() -> argparse.ArgumentParser:
     demos.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
     demos.add_argument("--quiet", action="store_true", help="no progress bar or demo table")
     demos.set_defaults(func=cmd_demos)
+
+    cal = sub.add_parser("calibrate", help="fit the likelihood's β to the scenario's "
+                                           "demonstrator on calibration instances",
+                         description="The calibration stage of the paper's §6.2: draw "
+                                     "calibration instances (never the ones a run is scored on), "
+                                     "collect the demos a passive run would get, and fit β by "
+                                     "maximum likelihood under the known w*, per instance and "
+                                     "pooled. Set demos.beta in the scenario to the pooled value.")
+    cal.add_argument("scenario", help="scenario TOML file, e.g. scenarios/lander.toml")
+    cal.add_argument("--instances", type=int, default=4, help="calibration instances (default 4)")
+    cal.add_argument("--seed", type=int, help="override the scenario's seed")
+    cal.add_argument("--set", action="append", metavar="KEY=VALUE",
+                     help="override a scenario key, e.g. --set demos.noise_fraction=0.2")
+    cal.add_argument("--json", metavar="FILE", help="also write the fits to this .json file")
+    cal.add_argument("--quiet", action="store_true", help="no progress bar or table")
+    cal.set_defaults(func=cmd_calibrate)
 
     view = sub.add_parser("view", help="open a run's Rerun recording in the viewer",
                           description="Open DIR/recording.rrd (or an .rrd file) in the Rerun "

@@ -1,0 +1,115 @@
+"""The calibration stage: fit the likelihood's β to a scenario's demonstrator (paper §6.2).
+
+Calibration instances are drawn from the scenario's domain and demonstrator with seed streams of
+their own, so for any seed they are never the instances a run of the scenario is scored on. Each
+gets the demos a passive run would ask for (the scenario's ``max_demos``, its share of poor
+demos); β is then fitted by maximum likelihood under each instance's known ``w*``, per instance and
+pooled over all of them (``mjsuff.posterior.calibration``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjsuff.domain import Demo, Domain
+from mjsuff.domains import get_domain
+from mjsuff.experiment.scenario import Scenario
+from mjsuff.experiment.selection import passive_order
+from mjsuff.posterior.calibration import BetaFit, fit_beta
+
+#: Spawn-key tag of the calibration streams (the run's streams use 0–3, see ``replicate.py``).
+_CALIBRATION = 100
+
+
+@dataclass(frozen=True)
+class InstanceCalibration:
+    """One calibration instance: its demos' fit, and where each demo ranks among its alternatives.
+
+    ``beaten_by`` is, per demo, how many of the likelihood's alternatives have a higher value under
+    ``w*`` than the demo (0: the demo is the best). Domains without an explicit candidate set
+    (tabular ones compare actions) report an empty tuple.
+    """
+
+    instance: int
+    demos: int
+    poor_demos: int
+    fit: BetaFit
+    beaten_by: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Per-instance fits and the fit pooled over every instance's demos."""
+
+    instances: list[InstanceCalibration]
+    pooled: BetaFit
+
+    def to_dict(self) -> dict:
+        def fit(f: BetaFit) -> dict:
+            return {"beta": f.beta, "log_likelihood": f.log_likelihood, "unbounded": f.unbounded,
+                    "standard_error": None if f.unbounded else f.standard_error}
+
+        return {"pooled": fit(self.pooled),
+                "instances": [{"instance": c.instance, "demos": c.demos,
+                               "poor_demos": c.poor_demos, **fit(c.fit),
+                               "beaten_by": list(c.beaten_by)} for c in self.instances]}
+
+
+def _stream(scenario: Scenario, instance: int, stream: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(
+        scenario.seed, spawn_key=(instance, _CALIBRATION, stream)))
+
+
+def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[Demo]]:
+    """Calibration instance ``instance`` and the demos a passive run would be shown on it."""
+    domain = get_domain(scenario.domain.name).make(scenario.domain_params(),
+                                                    _stream(scenario, instance, 0))
+    domain.configure(scenario)
+    pool = domain.pool.size
+    count = min(scenario.demos.max_demos or pool, pool)
+    order = passive_order(pool, _stream(scenario, instance, 1))
+    rng = _stream(scenario, instance, 2)
+    demos = []
+    for start in order[:count]:
+        poor = bool(rng.random() < scenario.demos.noise_fraction)
+        demos.append(domain.demonstrate(int(start), rng, poor=poor))
+    return domain, demos
+
+
+def calibrate(scenario: Scenario, instances: int,
+              on_instance: Callable[[InstanceCalibration], None] | None = None) -> Calibration:
+    """Fit β on ``instances`` calibration instances of ``scenario``.
+
+    Raises:
+        ValueError: If ``instances`` < 1.
+    """
+    if instances < 1:
+        raise ValueError(f"instances: expected at least 1, got {instances}")
+    curves: list[Callable[[float], float]] = []
+    results: list[InstanceCalibration] = []
+    for i in range(instances):
+        domain, demos = calibration_demos(scenario, i)
+        w = np.asarray(domain.true_weights, dtype=float)[None]
+
+        def curve(beta: float, domain: Domain = domain, demos: list[Demo] = demos,
+                  w: np.ndarray = w) -> float:
+            return float(domain.log_likelihood(w, demos, beta)[0])
+
+        beaten: tuple[int, ...] = ()
+        if hasattr(domain, "candidate_features"):
+            ranks = []
+            for demo in demos:
+                values = domain.candidate_features(demo) @ domain.true_weights
+                ranks.append(int(np.sum(values > values[0] + 1e-12)))
+            beaten = tuple(ranks)
+        result = InstanceCalibration(i, len(demos), sum(d.poor for d in demos),
+                                     fit_beta(curve), beaten)
+        curves.append(curve)
+        results.append(result)
+        if on_instance is not None:
+            on_instance(result)
+    pooled = fit_beta(lambda beta: sum(c(beta) for c in curves))
+    return Calibration(results, pooled)

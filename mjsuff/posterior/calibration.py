@@ -1,0 +1,83 @@
+"""Calibrating the likelihood's rationality β from demos whose reward is known.
+
+The paper (§6.2) leaves β to a calibration stage before demonstration collection. Here it is the
+maximum-likelihood β of demos under their known weights: ``β̂ = argmax_β Σ_j log P(d_j | w*, β)``
+with the same likelihood the posterior uses (Eq. 1, or the trajectory-level form of the MuJoCo
+scenes). The log-likelihood is concave in β (its second derivative is minus the variance of the
+demo's candidates' values under the Boltzmann choice), so a bounded 1-D search on ``log β`` finds
+the maximum. When every demo is the best of its alternatives the likelihood rises without bound
+and no finite β fits; the fit says so instead of returning the search's upper end.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from scipy.optimize import minimize_scalar
+
+#: Search range for β.
+BETA_RANGE = (0.01, 1000.0)
+#: Log-likelihood difference below which the upper end of the range counts as the maximum.
+PLATEAU = 1e-6
+
+
+class CalibrationError(ValueError):
+    """The log-likelihood cannot be fitted (not finite over the search range)."""
+
+
+@dataclass(frozen=True)
+class BetaFit:
+    """A maximum-likelihood β.
+
+    Attributes:
+        beta: The fitted β; the search's upper end when ``unbounded``.
+        log_likelihood: The log-likelihood at ``beta``.
+        unbounded: The likelihood at the upper end of the search is within ``PLATEAU`` of the
+            maximum found: it still rises there, or has flattened onto its supremum (every demo is
+            the best of its alternatives, or tied with the best, under the known weights), so
+            any large β fits.
+        standard_error: ``1 / sqrt(−ℓ''(β̂))`` from the observed information; ``inf`` when
+            unbounded or when the curvature vanishes.
+    """
+
+    beta: float
+    log_likelihood: float
+    unbounded: bool
+    standard_error: float
+
+
+def fit_beta(log_likelihood: Callable[[float], float],
+             beta_range: tuple[float, float] = BETA_RANGE) -> BetaFit:
+    """The β maximizing ``log_likelihood(β)`` within ``beta_range`` (both > 0).
+
+    Raises:
+        ValueError: If the range is not ``0 < low < high``.
+        CalibrationError: If the log-likelihood is not finite somewhere it is evaluated.
+    """
+    low, high = beta_range
+    if not 0.0 < low < high:
+        raise ValueError(f"beta_range: expected 0 < low < high, got {beta_range}")
+
+    def loss(log_beta: float) -> float:
+        beta = math.exp(log_beta)
+        value = float(log_likelihood(beta))
+        if not math.isfinite(value):
+            raise CalibrationError(f"log-likelihood at β = {beta:.4g} is {value}")
+        return -value
+
+    result = minimize_scalar(loss, bounds=(math.log(low), math.log(high)), method="bounded",
+                             options={"xatol": 1e-6})
+    beta = math.exp(float(result.x))
+    top = -loss(math.log(high))
+    # Unbounded when the upper end is as good as the best point found: the likelihood still
+    # climbs there, or has flattened onto its supremum (demos tied with their best alternative).
+    unbounded = top >= -float(result.fun) - PLATEAU
+    if unbounded:
+        return BetaFit(high, top, True, math.inf)
+    h = 1e-3 * beta
+    curvature = (float(log_likelihood(beta + h)) - 2.0 * -float(result.fun)
+                 + float(log_likelihood(beta - h))) / h**2
+    se = 1.0 / math.sqrt(-curvature) if curvature < 0 else math.inf
+    return BetaFit(beta, -float(result.fun), False, se)

@@ -1,0 +1,120 @@
+"""β calibration: the maximum-likelihood fit (``mjsuff.posterior.calibration``), the calibration
+stage on scenario instances (``mjsuff.experiment.calibration``) and ``mjsuff calibrate``."""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.special import logsumexp
+
+from mjsuff.cli import main
+from mjsuff.experiment.calibration import calibrate, calibration_demos
+from mjsuff.experiment.replicate import make_instance
+from mjsuff.posterior.calibration import BETA_RANGE, CalibrationError, fit_beta
+from tests.conftest import small_scenario
+
+SCENARIOS = Path(__file__).parent.parent / "scenarios"
+
+
+def choice_log_likelihood(values: np.ndarray, chosen: np.ndarray):
+    """``β -> Σ_j log softmax(β v_j)[c_j]`` for choice sets ``values`` ``(n, m)``."""
+    rows = np.arange(len(values))
+    return lambda beta: float(np.sum(beta * values[rows, chosen] - logsumexp(beta * values, axis=1)))
+
+
+@pytest.mark.parametrize("beta_true", [2.0, 7.0, 25.0])
+def test_fit_recovers_the_beta_that_generated_boltzmann_choices(beta_true):
+    rng = np.random.default_rng(11)
+    values = rng.uniform(0.0, 1.0, (600, 6))
+    p = np.exp(beta_true * values - logsumexp(beta_true * values, axis=1, keepdims=True))
+    chosen = np.array([rng.choice(6, p=row) for row in p])
+    fit = fit_beta(choice_log_likelihood(values, chosen))
+    assert not fit.unbounded and math.isfinite(fit.standard_error)
+    # Within 3 standard errors (observed information): a 99.7% interval if the fit is right.
+    assert abs(fit.beta - beta_true) < 3 * fit.standard_error
+    assert fit.standard_error < 0.25 * beta_true  # 600 choices pin β down
+
+
+def test_fit_is_the_maximum_of_the_curve():
+    rng = np.random.default_rng(2)
+    values = rng.normal(size=(50, 4))
+    chosen = rng.integers(0, 4, 50)
+    curve = choice_log_likelihood(values, chosen)
+    fit = fit_beta(curve)
+    grid = np.exp(np.linspace(np.log(BETA_RANGE[0]), np.log(BETA_RANGE[1]), 4001))
+    best = max(curve(b) for b in grid)
+    # The search stops within 1e-6 in log β of the maximum: its value is within ~1e-8 of it.
+    assert fit.log_likelihood >= best - 1e-6
+    assert fit.log_likelihood == pytest.approx(curve(fit.beta))
+
+
+def test_demos_that_are_always_best_fit_no_finite_beta():
+    rng = np.random.default_rng(3)
+    values = rng.uniform(size=(40, 5))
+    fit = fit_beta(choice_log_likelihood(values, values.argmax(axis=1)))
+    assert fit.unbounded and fit.beta == BETA_RANGE[1] and math.isinf(fit.standard_error)
+
+
+def test_demos_tied_with_the_best_plateau_and_count_as_unbounded():
+    values = np.tile([1.0, 1.0, 0.2, 0.0], (30, 1))  # two equally good choices, always one of them
+    fit = fit_beta(choice_log_likelihood(values, np.zeros(30, dtype=int)))
+    assert fit.unbounded
+    assert fit.log_likelihood == pytest.approx(-30 * math.log(2), abs=1e-6)
+
+
+def test_bad_range_and_non_finite_likelihood_are_named():
+    with pytest.raises(ValueError, match="beta_range"):
+        fit_beta(lambda b: -b, (5.0, 1.0))
+    with pytest.raises(CalibrationError, match="log-likelihood at β"):
+        fit_beta(lambda b: math.nan)
+
+
+def test_calibration_instances_are_not_the_runs_and_are_seeded():
+    scenario = small_scenario(**{"demos.max_demos": 12})
+    domain, demos = calibration_demos(scenario, 0)
+    assert len(demos) == 12
+    assert not np.allclose(domain.true_weights, make_instance(scenario, 0).true_weights)
+    again, _ = calibration_demos(scenario, 0)
+    np.testing.assert_array_equal(domain.true_weights, again.true_weights)
+    assert calibrate(scenario, 2).to_dict() == calibrate(scenario, 2).to_dict()
+
+
+def test_optimal_demos_fit_no_finite_beta_and_poor_ones_a_small_one():
+    optimal = calibrate(small_scenario(**{"demos.max_demos": 12}), 3)
+    assert optimal.pooled.unbounded
+    noisy = calibrate(small_scenario(**{"demos.max_demos": 12, "demos.noise_fraction": 0.4}), 3)
+    assert sum(c.poor_demos for c in noisy.instances) > 0
+    assert not noisy.pooled.unbounded and noisy.pooled.beta < 10.0
+    # The pooled fit maximizes the sum of concave curves: its maximum is at most the sum of the
+    # instances' maxima, and its β lies between theirs.
+    fits = [c.fit for c in noisy.instances]
+    assert noisy.pooled.log_likelihood <= sum(f.log_likelihood for f in fits) + 1e-6
+    assert min(f.beta for f in fits) - 1e-3 <= noisy.pooled.beta <= max(f.beta for f in fits) + 1e-3
+
+
+TINY_SCENE = ["--set", "domain.params.eval_starts=3", "--set", "demos.max_demos=3",
+              "--set", "domain.params.planning.planner.iterations=4",
+              "--set", "domain.params.planning.seed_directions=1"]
+
+
+def test_calibrate_cli_on_the_reacher_ranks_demos_against_their_candidates(tmp_path, capsys):
+    out = tmp_path / "cal.json"
+    code = main(["calibrate", str(SCENARIOS / "lava_reacher.toml"), "--instances", "1",
+                 "--quiet", "--json", str(out), *TINY_SCENE])
+    assert code == 0
+    data = json.loads(out.read_text())
+    (instance,) = data["instances"]
+    assert instance["demos"] == 3 and len(instance["beaten_by"]) == 3
+    # The reacher's expert beats every alternative in its candidate sets (README, calibration).
+    assert instance["beaten_by"] == [0, 0, 0] and data["pooled"]["unbounded"]
+    assert "pooled over 1 instance(s): β̂ = unbounded" in capsys.readouterr().out
+
+
+def test_calibrate_cli_errors_are_one_line(tmp_path, capsys):
+    assert main(["calibrate", str(SCENARIOS / "gridworld.toml"), "--instances", "0"]) == 2
+    assert "--instances: expected a positive number" in capsys.readouterr().err
+    assert main(["calibrate", str(SCENARIOS / "gridworld.toml"), "--json", str(tmp_path / "x.txt")]) == 2
+    assert "expected a .json file name" in capsys.readouterr().err
+    assert not (tmp_path / "x.txt").exists()
