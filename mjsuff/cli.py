@@ -238,10 +238,16 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         err.print(f"[red]error:[/] --json {args.json}: expected a .json file name",
                   highlight=False, soft_wrap=True)
         return EXIT_USAGE
+    if args.json and not Path(args.json).parent.is_dir():
+        err.print(f"[red]error:[/] --json {args.json}: directory {Path(args.json).parent} "
+                  "does not exist", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
 
     def show(fit: BetaFit) -> str:
         if fit.unbounded:
             return f"unbounded (> {fit.beta:g})"
+        if fit.at_lower:
+            return f"≤ {fit.beta:g} (demos no better than alternatives)"
         return f"{fit.beta:.1f} ± {fit.standard_error:.1f}"
 
     table = Table(title=f"β by maximum likelihood under w*, {scenario.name} "
@@ -276,7 +282,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         from mjsuff.experiment.results import atomic_write_text
 
         payload = {"scenario": str(args.scenario), "seed": scenario.seed, **result.to_dict()}
-        atomic_write_text(Path(args.json), json.dumps(payload, indent=2) + "\n")
+        try:
+            atomic_write_text(Path(args.json), json.dumps(payload, indent=2) + "\n")
+        except OSError as exc:
+            err.print(f"[red]error:[/] --json {args.json}: {exc.strerror or exc}",
+                      highlight=False, soft_wrap=True)
+            return EXIT_USAGE
         out.print(f"calibration: {args.json}", highlight=False, soft_wrap=True)
     return 0
 

@@ -40,9 +40,11 @@ def test_fit_recovers_the_beta_that_generated_boltzmann_choices(beta_true):
 def test_fit_is_the_maximum_of_the_curve():
     rng = np.random.default_rng(2)
     values = rng.normal(size=(50, 4))
-    chosen = rng.integers(0, 4, 50)
+    p = np.exp(3.0 * values - logsumexp(3.0 * values, axis=1, keepdims=True))
+    chosen = np.array([rng.choice(4, p=row) for row in p])
     curve = choice_log_likelihood(values, chosen)
     fit = fit_beta(curve)
+    assert BETA_RANGE[0] < fit.beta < BETA_RANGE[1] and not (fit.unbounded or fit.at_lower)
     grid = np.exp(np.linspace(np.log(BETA_RANGE[0]), np.log(BETA_RANGE[1]), 4001))
     best = max(curve(b) for b in grid)
     # The search stops within 1e-6 in log β of the maximum: its value is within ~1e-8 of it.
@@ -55,6 +57,14 @@ def test_demos_that_are_always_best_fit_no_finite_beta():
     values = rng.uniform(size=(40, 5))
     fit = fit_beta(choice_log_likelihood(values, values.argmax(axis=1)))
     assert fit.unbounded and fit.beta == BETA_RANGE[1] and math.isinf(fit.standard_error)
+
+
+def test_demos_no_better_than_their_alternatives_are_flagged_at_the_lower_end():
+    rng = np.random.default_rng(4)
+    values = rng.uniform(size=(40, 5))
+    fit = fit_beta(choice_log_likelihood(values, values.argmin(axis=1)))
+    assert fit.at_lower and fit.beta == BETA_RANGE[0] and math.isinf(fit.standard_error)
+    assert not fit.unbounded
 
 
 def test_demos_tied_with_the_best_plateau_and_count_as_unbounded():
@@ -75,7 +85,8 @@ def test_calibration_instances_are_not_the_runs_and_are_seeded():
     scenario = small_scenario(**{"demos.max_demos": 12})
     domain, demos = calibration_demos(scenario, 0)
     assert len(demos) == 12
-    assert not np.allclose(domain.true_weights, make_instance(scenario, 0).true_weights)
+    runs = [make_instance(scenario, r).true_weights for r in range(8)]
+    assert not any(np.allclose(domain.true_weights, w) for w in runs)
     again, _ = calibration_demos(scenario, 0)
     np.testing.assert_array_equal(domain.true_weights, again.true_weights)
     assert calibrate(scenario, 2).to_dict() == calibrate(scenario, 2).to_dict()
@@ -87,10 +98,8 @@ def test_optimal_demos_fit_no_finite_beta_and_poor_ones_a_small_one():
     noisy = calibrate(small_scenario(**{"demos.max_demos": 12, "demos.noise_fraction": 0.4}), 3)
     assert sum(c.poor_demos for c in noisy.instances) > 0
     assert not noisy.pooled.unbounded and noisy.pooled.beta < 10.0
-    # The pooled fit maximizes the sum of concave curves: its maximum is at most the sum of the
-    # instances' maxima, and its β lies between theirs.
+    # The pooled fit maximizes a sum of concave curves: its β lies between the instances'.
     fits = [c.fit for c in noisy.instances]
-    assert noisy.pooled.log_likelihood <= sum(f.log_likelihood for f in fits) + 1e-6
     assert min(f.beta for f in fits) - 1e-3 <= noisy.pooled.beta <= max(f.beta for f in fits) + 1e-3
 
 
@@ -112,9 +121,16 @@ def test_calibrate_cli_on_the_reacher_ranks_demos_against_their_candidates(tmp_p
     assert "pooled over 1 instance(s): β̂ = unbounded" in capsys.readouterr().out
 
 
-def test_calibrate_cli_errors_are_one_line(tmp_path, capsys):
-    assert main(["calibrate", str(SCENARIOS / "gridworld.toml"), "--instances", "0"]) == 2
-    assert "--instances: expected a positive number" in capsys.readouterr().err
-    assert main(["calibrate", str(SCENARIOS / "gridworld.toml"), "--json", str(tmp_path / "x.txt")]) == 2
-    assert "expected a .json file name" in capsys.readouterr().err
-    assert not (tmp_path / "x.txt").exists()
+@pytest.mark.parametrize(("args", "message"), [
+    (["--instances", "0"], "--instances: expected a positive number, got 0"),
+    (["--json", "{tmp}/x.txt"], "expected a .json file name"),
+    (["--json", "{tmp}/missing/x.json"], "missing does not exist"),
+    (["--set", "demos.beta=-1"], "demos.beta"),
+])
+def test_calibrate_cli_errors_are_one_line_before_work(tmp_path, capsys, args, message):
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    assert main(["calibrate", str(SCENARIOS / "gridworld.toml"), *args]) == 2
+    captured = capsys.readouterr()
+    assert message in captured.err and "Traceback" not in captured.err
+    assert len(captured.err.strip().splitlines()) == 1 and captured.out == ""
+    assert list(tmp_path.iterdir()) == []

@@ -1,14 +1,22 @@
 """The calibration stage: fit the likelihood's β to a scenario's demonstrator (paper §6.2).
 
-Calibration instances are drawn from the scenario's domain and demonstrator with seed streams of
-their own, so for any seed they are never the instances a run of the scenario is scored on. Each
-gets the demos a passive run would ask for (the scenario's ``max_demos``, its share of poor
-demos); β is then fitted by maximum likelihood under each instance's known ``w*``, per instance and
-pooled over all of them (``mjsuff.posterior.calibration``).
+Calibration instances are drawn from the scenario's domain and demonstrator with seed streams no
+run uses (``replicate.seed_sequence(..., "calibration", ...)``). Each gets the demos a passive run
+would ask for (the scenario's ``max_demos``, its share of poor demos); β is then fitted by maximum
+likelihood under each instance's known ``w*``, per instance and pooled over all of them
+(``mjsuff.posterior.calibration``).
+
+What a demo is compared with matters. On the MuJoCo scenes a demo's candidate set is built from
+the start's trajectory library when the demo is first seen; in a run that library already holds
+π_MAP plans and V* refinements near ``w*`` by the later demos. So before the demos, calibration
+plans and refines ``w*`` itself from every start into the library (the converged condition of a run; harmless
+here, since a calibration instance is never scored): the demos then face alternatives at least as
+strong as a run's, and β̂ errs low (a less confident posterior) rather than high.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -16,12 +24,10 @@ import numpy as np
 
 from mjsuff.domain import Demo, Domain
 from mjsuff.domains import get_domain
+from mjsuff.experiment.replicate import seed_sequence
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experiment.selection import passive_order
 from mjsuff.posterior.calibration import BetaFit, fit_beta
-
-#: Spawn-key tag of the calibration streams (the run's streams use 0–3, see ``replicate.py``).
-_CALIBRATION = 100
 
 
 @dataclass(frozen=True)
@@ -50,7 +56,8 @@ class Calibration:
     def to_dict(self) -> dict:
         def fit(f: BetaFit) -> dict:
             return {"beta": f.beta, "log_likelihood": f.log_likelihood, "unbounded": f.unbounded,
-                    "standard_error": None if f.unbounded else f.standard_error}
+                    "at_lower": f.at_lower,
+                    "standard_error": f.standard_error if math.isfinite(f.standard_error) else None}
 
         return {"pooled": fit(self.pooled),
                 "instances": [{"instance": c.instance, "demos": c.demos,
@@ -59,8 +66,7 @@ class Calibration:
 
 
 def _stream(scenario: Scenario, instance: int, stream: int) -> np.random.Generator:
-    return np.random.default_rng(np.random.SeedSequence(
-        scenario.seed, spawn_key=(instance, _CALIBRATION, stream)))
+    return np.random.default_rng(seed_sequence(scenario, instance, "calibration", stream))
 
 
 def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[Demo]]:
@@ -68,6 +74,9 @@ def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[D
     domain = get_domain(scenario.domain.name).make(scenario.domain_params(),
                                                     _stream(scenario, instance, 0))
     domain.configure(scenario)
+    # w*'s own plan and V* refinement join a scene's trajectory library before any demo.
+    domain.plan(domain.true_weights)
+    domain.optimal_start_values(np.asarray(domain.true_weights, dtype=float)[None])
     pool = domain.pool.size
     count = min(scenario.demos.max_demos or pool, pool)
     order = passive_order(pool, _stream(scenario, instance, 1))

@@ -52,11 +52,14 @@ def make_instance(scenario: Scenario, replicate: int) -> Domain:
     return domain
 
 
-_STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3}
+#: Randomness streams of a replicate; ``calibration`` is the calibration stage's own
+#: (``mjsuff.experiment.calibration``), so its instances are drawn from streams no run uses.
+_STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3, "calibration": 100}
 
 
 def seed_sequence(scenario: Scenario, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
-    """The seed of one randomness stream (instance, demos, mcmc, selection) of a replicate."""
+    """The seed of one randomness stream (instance, demos, mcmc, selection, calibration) of a
+    replicate (or of a calibration instance)."""
     return np.random.SeedSequence(scenario.seed, spawn_key=(replicate, _STREAMS[stream], *key))
 
 

@@ -34,6 +34,9 @@ class BetaFit:
     Attributes:
         beta: The fitted β; the search's upper end when ``unbounded``.
         log_likelihood: The log-likelihood at ``beta``.
+        at_lower: The maximum is at the lower end of the search: the demos are no better than
+            their alternatives under the known weights (a best β ≤ ``low``), so the demos carry
+            next to no evidence about the reward; ``standard_error`` is then ``inf``.
         unbounded: The likelihood at the upper end of the search is within ``PLATEAU`` of the
             maximum found: it still rises there, or has flattened onto its supremum (every demo is
             the best of its alternatives, or tied with the best, under the known weights), so
@@ -46,6 +49,7 @@ class BetaFit:
     log_likelihood: float
     unbounded: bool
     standard_error: float
+    at_lower: bool = False
 
 
 def fit_beta(log_likelihood: Callable[[float], float],
@@ -60,24 +64,27 @@ def fit_beta(log_likelihood: Callable[[float], float],
     if not 0.0 < low < high:
         raise ValueError(f"beta_range: expected 0 < low < high, got {beta_range}")
 
+    def value(beta: float) -> float:
+        v = float(log_likelihood(beta))
+        if not math.isfinite(v):
+            raise CalibrationError(f"log-likelihood at β = {beta:.4g} is {v}")
+        return v
+
     def loss(log_beta: float) -> float:
-        beta = math.exp(log_beta)
-        value = float(log_likelihood(beta))
-        if not math.isfinite(value):
-            raise CalibrationError(f"log-likelihood at β = {beta:.4g} is {value}")
-        return -value
+        return -value(math.exp(log_beta))
 
     result = minimize_scalar(loss, bounds=(math.log(low), math.log(high)), method="bounded",
                              options={"xatol": 1e-6})
-    beta = math.exp(float(result.x))
-    top = -loss(math.log(high))
+    beta, best = math.exp(float(result.x)), -float(result.fun)
     # Unbounded when the upper end is as good as the best point found: the likelihood still
     # climbs there, or has flattened onto its supremum (demos tied with their best alternative).
-    unbounded = top >= -float(result.fun) - PLATEAU
-    if unbounded:
+    top = value(high)
+    if top >= best - PLATEAU:
         return BetaFit(high, top, True, math.inf)
+    bottom = value(low)
+    if bottom >= best - PLATEAU:
+        return BetaFit(low, bottom, False, math.inf, at_lower=True)
     h = 1e-3 * beta
-    curvature = (float(log_likelihood(beta + h)) - 2.0 * -float(result.fun)
-                 + float(log_likelihood(beta - h))) / h**2
+    curvature = (value(beta + h) - 2.0 * best + value(beta - h)) / h**2
     se = 1.0 / math.sqrt(-curvature) if curvature < 0 else math.inf
-    return BetaFit(beta, -float(result.fun), False, se)
+    return BetaFit(beta, best, False, se)
