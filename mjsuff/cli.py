@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +75,24 @@ def _load(args: argparse.Namespace) -> Scenario | None:
         return None
 
 
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """Treat SIGTERM (``kill``, a batch scheduler's stop) like Ctrl-C while a run goes: finished
+    replicates are kept and summarized, worker processes are stopped."""
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     scenario = _load(args)
     if scenario is None:
@@ -110,7 +132,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             err.print(f"[red]error:[/] --demos: {exc}", highlight=False, soft_wrap=True)
             return EXIT_USAGE
     try:
-        with progress:
+        with progress, _sigterm_interrupts():
             result = run_scenario(scenario, directory, args.overwrite, on_progress, sources,
                                   record=not args.no_record, backend=backend, resume=args.resume)
     except (OutputError, BackendError) as exc:

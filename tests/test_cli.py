@@ -140,21 +140,53 @@ def test_interrupt_keeps_finished_replicates(tmp_path, monkeypatch):
     assert "/r0/posterior/samples" in Recording(tmp_path / "r" / RECORDING).entity_paths()
 
 
-def test_sigint_mid_run_leaves_readable_results(tmp_path):
-    out = tmp_path / "r"
-    args = [sys.executable, "-m", "mjsuff.cli", "run", GRIDWORLD, "--out", str(out), "--quiet"]
+def live_group_members(pgid: int) -> list[int]:
+    """Processes of process group ``pgid`` that are still running (zombies do not count)."""
+    members = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid and fields[0] != "Z":
+            members.append(int(stat.parent.name))
+    return members
+
+
+def wait_for_group_exit(pgid: int, timeout: float) -> list[int]:
+    deadline = time.monotonic() + timeout
+    while (alive := live_group_members(pgid)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return alive
+
+
+def start_long_run(out: Path) -> subprocess.Popen:
+    """A 50-replicate gridworld run on 2 local workers, in a process group of its own, once its
+    first replicate is on disk."""
+    args = [sys.executable, "-m", "mjsuff.cli", "run", GRIDWORLD, "--out", str(out), "--quiet",
+            "--workers", "2"]
     for s in [*SMALL_SETS[1:], "replicates=50"]:
         args += ["--set", s]
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
     first = out / "replicates" / "replicate-00000.parquet"
     deadline = time.monotonic() + 120
     while not first.exists() and time.monotonic() < deadline and proc.poll() is None:
         time.sleep(0.05)
     assert first.exists()
-    proc.send_signal(signal.SIGINT)
+    return proc
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_interrupt_mid_run_leaves_readable_results_and_no_workers(tmp_path, signum):
+    out = tmp_path / "r"
+    proc = start_long_run(out)
+    proc.send_signal(signum)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
+    assert wait_for_group_exit(proc.pid, 10) == []  # the worker processes were stopped too
     steps = pd.read_parquet(out / "steps.parquet")
     assert 1 <= steps["replicate"].nunique() < 50
     assert not list(out.glob("**/*.tmp"))
@@ -162,3 +194,13 @@ def test_sigint_mid_run_leaves_readable_results(tmp_path):
     from rerun.chunk import RrdReader
 
     assert "/r0/posterior/samples" in RrdReader(str(out / RECORDING)).store().schema().entity_paths()
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_workers_exit_when_the_run_is_killed(tmp_path):
+    proc = start_long_run(tmp_path / "r")
+    assert len(live_group_members(proc.pid)) >= 3  # the run, its 2 workers (and helpers)
+    proc.kill()  # SIGKILL: no handler runs, nothing can stop the workers but themselves
+    proc.communicate(timeout=60)
+    # Workers notice their parent is gone within a second and exit; they do not run on.
+    assert wait_for_group_exit(proc.pid, 15) == []

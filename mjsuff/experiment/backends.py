@@ -22,9 +22,11 @@ import queue
 import signal
 import tempfile
 import threading
+import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
+from multiprocessing.managers import SyncManager
 from pathlib import Path
 from typing import Any
 
@@ -135,10 +137,33 @@ def _sigint_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
+def _exit_with_parent(poll: float = 1.0) -> None:
+    """Exit this helper process within ``poll`` seconds of its parent's death.
+
+    A parent killed without clean-up (SIGKILL, or a crash) cannot terminate its workers; without
+    this they would go on simulating, orphaned, until their replicate ends.
+    """
+    parent = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(poll)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
+
+
 def _worker_init(threads: int) -> None:
     # Ctrl-C is the parent's to handle: it keeps what finished and stops the workers.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ[SIM_THREADS_ENV] = str(threads)
+    _exit_with_parent()
+
+
+def _manager_init() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _exit_with_parent()
 
 
 def _execute_reporting(task: ReplicateTask, events: Any) -> ReplicateResult:
@@ -176,8 +201,11 @@ class LocalBackend(Backend):
         context = multiprocessing.get_context("spawn")
         # Children inherit an ignored SIGINT from the moment they start (before their slow
         # imports): Ctrl-C is the parent's to handle.
-        with _sigint_ignored():
-            manager = context.Manager() if on_step is not None else None
+        manager = None
+        if on_step is not None:
+            manager = SyncManager(ctx=context)
+            with _sigint_ignored():
+                manager.start(_manager_init)
         events = manager.Queue() if manager is not None else None
         by_key = {t.key: t for t in tasks}
         stop = threading.Event()
