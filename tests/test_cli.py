@@ -167,8 +167,11 @@ def start_long_run(out: Path) -> subprocess.Popen:
             "--workers", "2"]
     for s in [*SMALL_SETS[1:], "replicates=50"]:
         args += ["--set", s]
+    # SIGINT back to its default: a test run started in the background inherits it ignored,
+    # and Python then never turns it into KeyboardInterrupt.
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     first = out / "replicates" / "replicate-00000.parquet"
     deadline = time.monotonic() + 120
     while not first.exists() and time.monotonic() < deadline and proc.poll() is None:
