@@ -62,6 +62,11 @@ class Domain(abc.ABC):
         """Boltzmann log-likelihood ``log P(D | w)`` for a batch ``(N, k)`` of weights -> ``(N,)``."""
 
     @abc.abstractmethod
+    def alternatives_better(self, demo: Demo, w: np.ndarray) -> int:
+        """How many of the likelihood's alternatives to ``demo`` (other actions, or the demo's
+        candidate trajectories) are worth more than the demo under weights ``w`` ``(k,)``."""
+
+    @abc.abstractmethod
     def plan(self, w: np.ndarray) -> Policy:
         """The robot's (optimal) policy for reward weights ``w``."""
 

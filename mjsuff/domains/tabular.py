@@ -335,6 +335,13 @@ class TabularDomain(Domain):
         chosen = q_demo[:, np.arange(len(demos)), actions]
         return (chosen - log_z).sum(axis=1)
 
+    def alternatives_better(self, demo: Demo, w: np.ndarray) -> int:
+        """Actions whose ``Q_w`` at the demo's state exceeds the demo action's (ties excluded)."""
+        q, _ = self.cache.solve(np.asarray(w, dtype=float)[None])
+        values = q[0, self.pool[demo.start]]
+        chosen = values[demo.action]
+        return int(np.sum(values > chosen + 1e-9 * max(1.0, abs(chosen))))
+
     def plan(self, w: np.ndarray) -> np.ndarray:
         q, _ = self.cache.solve(np.asarray(w)[None])
         return greedy_actions(q[0])

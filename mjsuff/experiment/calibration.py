@@ -9,9 +9,10 @@ likelihood under each instance's known ``w*``, per instance and pooled over all 
 What a demo is compared with matters. On the MuJoCo scenes a demo's candidate set is built from
 the start's trajectory library when the demo is first seen; in a run that library already holds
 π_MAP plans and V* refinements near ``w*`` by the later demos. So before the demos, calibration
-plans and refines ``w*`` itself from every start into the library (the converged condition of a run; harmless
-here, since a calibration instance is never scored): the demos then face alternatives at least as
-strong as a run's, and β̂ errs low (a less confident posterior) rather than high.
+plans and refines ``w*`` itself from every start into the library (the converged condition of a
+run; harmless here, since a calibration instance is never scored): the demos then face
+alternatives at least as strong as a run's, and β̂ errs low (a less confident posterior) rather
+than high.
 """
 
 from __future__ import annotations
@@ -23,8 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjsuff.domain import Demo, Domain
-from mjsuff.domains import get_domain
-from mjsuff.experiment.replicate import seed_sequence
+from mjsuff.experiment.replicate import demo_budget, make_instance, seed_sequence
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experiment.selection import passive_order
 from mjsuff.posterior.calibration import BetaFit, fit_beta
@@ -34,9 +34,8 @@ from mjsuff.posterior.calibration import BetaFit, fit_beta
 class InstanceCalibration:
     """One calibration instance: its demos' fit, and where each demo ranks among its alternatives.
 
-    ``beaten_by`` is, per demo, how many of the likelihood's alternatives have a higher value under
-    ``w*`` than the demo (0: the demo is the best). Domains without an explicit candidate set
-    (tabular ones compare actions) report an empty tuple.
+    ``beaten_by`` is, per demo, how many of the likelihood's alternatives (other actions, or
+    candidate trajectories) are worth more under ``w*`` than the demo (0: the demo is the best).
     """
 
     instance: int
@@ -71,18 +70,16 @@ def _stream(scenario: Scenario, instance: int, stream: int) -> np.random.Generat
 
 def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[Demo]]:
     """Calibration instance ``instance`` and the demos a passive run would be shown on it."""
-    domain = get_domain(scenario.domain.name).make(scenario.domain_params(),
-                                                    _stream(scenario, instance, 0))
-    domain.configure(scenario)
+    domain = make_instance(scenario, instance,
+                           seed_sequence(scenario, instance, "calibration", 0))
     # w*'s own plan and V* refinement join a scene's trajectory library before any demo.
     domain.plan(domain.true_weights)
     domain.optimal_start_values(np.asarray(domain.true_weights, dtype=float)[None])
     pool = domain.pool.size
-    count = min(scenario.demos.max_demos or pool, pool)
     order = passive_order(pool, _stream(scenario, instance, 1))
     rng = _stream(scenario, instance, 2)
     demos = []
-    for start in order[:count]:
+    for start in order[:demo_budget(scenario, pool)]:
         poor = bool(rng.random() < scenario.demos.noise_fraction)
         demos.append(domain.demonstrate(int(start), rng, poor=poor))
     return domain, demos
@@ -107,13 +104,7 @@ def calibrate(scenario: Scenario, instances: int,
                   w: np.ndarray = w) -> float:
             return float(domain.log_likelihood(w, demos, beta)[0])
 
-        beaten: tuple[int, ...] = ()
-        if hasattr(domain, "candidate_features"):
-            ranks = []
-            for demo in demos:
-                values = domain.candidate_features(demo) @ domain.true_weights
-                ranks.append(int(np.sum(values > values[0] + 1e-12)))
-            beaten = tuple(ranks)
+        beaten = tuple(domain.alternatives_better(d, w[0]) for d in demos)
         result = InstanceCalibration(i, len(demos), sum(d.poor for d in demos),
                                      fit_beta(curve), beaten)
         curves.append(curve)

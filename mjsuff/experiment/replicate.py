@@ -44,9 +44,11 @@ def build_rules(scenario: Scenario) -> list[StoppingRule]:
     ]
 
 
-def make_instance(scenario: Scenario, replicate: int) -> Domain:
-    """The domain instance of ``replicate`` (its own seed stream)."""
-    rng = np.random.default_rng(seed_sequence(scenario, replicate, "instance"))
+def make_instance(scenario: Scenario, replicate: int,
+                  seed: np.random.SeedSequence | None = None) -> Domain:
+    """The domain instance of ``replicate`` (its own seed stream), or drawn from ``seed``."""
+    rng = np.random.default_rng(seed if seed is not None else
+                                seed_sequence(scenario, replicate, "instance"))
     domain = get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
     domain.configure(scenario)
     return domain
@@ -54,6 +56,11 @@ def make_instance(scenario: Scenario, replicate: int) -> Domain:
 
 #: Randomness streams of a replicate; ``calibration`` is the calibration stage's own
 #: (``mjsuff.experiment.calibration``), so its instances are drawn from streams no run uses.
+def demo_budget(scenario: Scenario, pool_size: int) -> int:
+    """Demos a replicate is shown: ``demos.max_demos`` (default: the pool), at most the pool."""
+    return min(scenario.demos.max_demos or pool_size, pool_size)
+
+
 _STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3, "calibration": 100}
 
 
@@ -126,7 +133,7 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         rule.reset()
     cfg, suff = scenario.demos, scenario.sufficiency
     pool_size = domain.pool.size
-    max_demos = min(cfg.max_demos or pool_size, pool_size)
+    max_demos = demo_budget(scenario, pool_size)
     demo_rng = np.random.default_rng(seed_sequence(scenario, replicate, "demos"))
     order = passive_order(pool_size, np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
     truth = _Truth(domain)

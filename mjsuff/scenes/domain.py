@@ -279,6 +279,11 @@ class SceneDomain(Domain):
             self.library.add_features(s, phi)
         return self._candidates[key]
 
+    def alternatives_better(self, demo: Demo, w: np.ndarray) -> int:
+        """Members of the demo's candidate set worth more than the demo under ``w`` (ties excluded)."""
+        values = self.candidate_features(demo) @ np.asarray(w, dtype=float)
+        return int(np.sum(values[1:] > values[0] + 1e-12))
+
     def _perturbed(self, start: int, controls: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Features of ``controls`` ``(T, nu)`` plus smooth random offsets (zero at t = 0, hat
         functions over the spline's knots), simulated from ``start``; diverged ones dropped."""
