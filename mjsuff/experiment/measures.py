@@ -15,6 +15,24 @@ PIOB ≥ the threshold), each replicate is one decision:
 * policy_optimality — mean share of optimal actions of the deployed policy at the evaluated step.
 
 Baselines have no threshold of their own: they are scored at every nEVD threshold ε.
+
+The paper's measures, as its published code computes them (``sufficiency.py`` and the notebook
+``organized_plotting.ipynb``), beside ours. There a rule does not stop: every demo step of every
+replicate is a decision, sufficient or not, scored against the truth at that step:
+
+* ``paper_tp``, ``paper_fp``, ``paper_fn``, ``paper_tn`` — that per-step confusion matrix (the
+  counts behind ``tpr`` and ``fpr``).
+* ``paper_f1_notebook`` — the F1 the notebook reports: its ``calc_F1`` reads FN as the constant 1
+  (``FN = [1][0]``), so F1 = TP / (TP + ½(FP + 1)) whatever the real FN.
+* ``paper_f1_per_step`` — the same per-step F1 with the real FN: TP / (TP + ½(FP + FN)).
+* ``paper_demos`` — the mean demo count over every step at which the rule was sufficient (not the
+  first stop), pooled over replicates; ``paper_pct_states`` the mean share of the demo pool over
+  those steps. NaN when the rule was never sufficient (the notebook's ``mean`` would show 0). The
+  paper divides by rows·cols, which in the gridworld counts the terminal cell (25 cells, 24 in
+  the pool), so its share there is 24/25 of ``paper_pct_states``.
+
+Ground truth is the same as ours (true nEVD ≤ ε, true PIOB ≥ the threshold; the paper's strict
+inequalities differ only at exact equality). Baselines are scored at every ε, as above.
 """
 
 from __future__ import annotations
@@ -79,6 +97,9 @@ def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> d
     accurate = (bound <= true if improvement else bound >= true)[known]
     errors = (bound - true)[known]
     needed_arr = np.array(needed, dtype=float)
+    sufficient = frame[decision.astype(bool)]
+    paper_steps = sufficient["step"].to_numpy(float)
+    paper_shares = paper_steps / sufficient["pool_size"].to_numpy(float)
     return {
         "replicates": len(needed),
         "f1": _f1(tp, fp, fn),
@@ -92,6 +113,24 @@ def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> d
         "fpr": _rate(step_fp, step_fp + step_tn),
         "policy_optimality": float(np.mean(optimality)),
         "tp": tp, "fp": fp, "fn": fn, "tn": tn,
+        **paper_measures(step_tp, step_fp, step_fn, step_tn, paper_steps, paper_shares),
+    }
+
+
+def paper_measures(
+    tp: int, fp: int, fn: int, tn: int, steps: np.ndarray, shares: np.ndarray
+) -> dict[str, Any]:
+    """The paper's measures from the per-step confusion counts and the demo counts ``steps`` and
+    pool shares ``shares`` of every step at which the rule was sufficient (module docstring)."""
+    return {
+        "paper_f1_notebook": tp / (tp + 0.5 * (fp + 1)),
+        "paper_f1_per_step": _f1(tp, fp, fn),
+        "paper_demos": float(steps.mean()) if steps.size else math.nan,
+        "paper_pct_states": float(shares.mean()) if shares.size else math.nan,
+        "paper_tp": tp,
+        "paper_fp": fp,
+        "paper_fn": fn,
+        "paper_tn": tn,
     }
 
 
