@@ -14,6 +14,7 @@ from mjsuff.experiment.measures import measure_group
 from mjsuff.experiment.runner import run_scenario
 from mjsuff.report import ReportError, compare_rules, load_cells
 from mjsuff.report.figures import f1_with_se, replicate_outcomes, rule_curves
+from mjsuff.report.statistics import observations
 from tests.conftest import small_scenario
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -37,6 +38,7 @@ def test_report_writes_figures_linked_from_markdown(sweep_run, capsys):
     for link in links:
         assert (out / link).read_bytes()[:8] == PNG and (out / link).stat().st_size > 10_000
     assert "Kruskal-Wallis" in text and "Dunn" in text and "noise_fraction = 0.4" in text
+    assert "H1, decision quality" in text and "F1 (notebook, FN = 1)" in text
     assert "report.md" in capsys.readouterr().out
 
 
@@ -84,3 +86,41 @@ def test_not_a_run_is_a_clear_error(tmp_path, capsys):
         load_cells([tmp_path])
     assert main(["report", str(tmp_path)]) == 2
     assert str(tmp_path) in capsys.readouterr().err
+
+
+def _steps(rule, param, replicate, decisions, nevds):
+    return [{"rule": rule, "param": param, "replicate": replicate, "step": i + 1, "decision": d,
+             "true_nevd": n, "pool_size": 2} for i, (d, n) in enumerate(zip(decisions, nevds,
+                                                                                strict=True))]
+
+
+def test_rule_observations_are_one_per_replicate_and_rule_averaged_over_parameters():
+    """nEVD at its own ε, baselines at every ε (0.1, 0.5); PIOB left out."""
+    steps = pd.DataFrame(
+        _steps("nevd", 0.1, 0, [False, True], [0.3, 0.05])      # stop 2, TP
+        + _steps("nevd", 0.1, 1, [False, False], [0.3, 0.2])    # TN
+        + _steps("nevd", 0.5, 0, [True, True], [0.3, 0.05])     # stop 1, TP
+        + _steps("nevd", 0.5, 1, [False, False], [0.3, 0.2])    # FN
+        + _steps("patience", 1.0, 0, [False, True], [0.3, 0.0])   # stop 2: TP, TP
+        + _steps("patience", 1.0, 1, [True, True], [0.3, 0.3])    # stop 1: FP, TP
+        + _steps("patience", 2.0, 0, [False, False], [0.3, 0.0])  # FN, FN
+        + _steps("patience", 2.0, 1, [False, True], [0.3, 0.3])   # stop 2: FP, TP
+        + _steps("validation", 3.0, 0, [False, False], [0.6, 0.6])  # TN, TN
+        + _steps("validation", 3.0, 1, [False, True], [0.6, 0.05])  # stop 2: TP, TP
+        + _steps("piob", 0.4, 0, [True, True], [0.0, 0.0]))
+    quality, demos = observations(steps, [0.1, 0.5])
+    assert quality.set_index(["rule", "replicate"])["correct"].to_dict() == {
+        ("nevd", 0): 1.0, ("nevd", 1): 0.5, ("patience", 0): 0.5, ("patience", 1): 0.5,
+        ("validation", 0): 1.0, ("validation", 1): 1.0}
+    assert demos.set_index(["rule", "replicate"])["demos"].to_dict() == {
+        ("nevd", 0): 1.5, ("nevd", 1): 2.0, ("patience", 0): 2.0, ("patience", 1): 1.5,
+        ("validation", 0): 2.0, ("validation", 1): 2.0}
+
+
+def test_rule_observations_of_a_run_are_one_per_replicate_and_rule(sweep_run):
+    for cell in load_cells([sweep_run]):
+        replicates = cell.steps["replicate"].nunique()
+        for frame in observations(cell.steps, cell.thresholds):
+            assert not frame.duplicated(["rule", "replicate"]).any()
+            assert frame.groupby("rule").size().to_dict() == {
+                "nevd": replicates, "patience": replicates, "validation": replicates}

@@ -1,10 +1,22 @@
 """The paper's tests between stopping rules (§4.4): Kruskal-Wallis, then Dunn post-hoc tests with
 the Bonferroni correction (``scikit_posthocs.posthoc_dunn``), with the medians compared.
 
-* H1 (F1): one observation per rule parameter and threshold ε — the F1 of that rule at ε.
-* H2 (sample efficiency): the demos each replicate needed — one observation per replicate and
-  rule parameter (for the nEVD rule its parameter is ε; a baseline stops where it stops whatever
-  ε is, so it is not repeated per ε).
+Each replicate (one random world) gives exactly one observation per rule, so the observations of
+a rule are independent and every rule has as many as there are replicates; a rule's parameters
+are averaged within the replicate, never entered as separate observations (which would count one
+world several times: pseudo-replication).
+
+* H1 (decision quality): per replicate and rule, the share of its stop decisions that were
+  correct, over the rule's parameters × thresholds ε (nEVD: each ε with its own parameter;
+  convergence and validation baselines: every p or interval at every ε). A decision is the one
+  the per-replicate F1 counts (Eq. 10: the rule's first sufficient step, else its last): correct
+  when it stopped with true nEVD ≤ ε (TP) or never stopped and the final policy was not within ε
+  (TN). F1 cannot be the per-replicate measure: a replicate whose decisions are all TN has no F1,
+  and dropping those worlds would bias the comparison, while the share of correct decisions is
+  defined for every replicate (F1 pooled over replicates is in ``summary.json``).
+* H2 (sample efficiency): per replicate and rule, the demos needed (the evaluated step) averaged
+  over the rule's parameters (nEVD: over ε; convergence: over p; validation: over intervals). A
+  baseline stops where it stops whatever ε is, so ε does not enter.
 
 The bound rules and the baselines form the groups (``nevd``, ``patience`` i.e. convergence,
 ``validation``); the PIOB rule answers a different question and is left out, as in the paper.
@@ -20,7 +32,7 @@ import pandas as pd
 import scikit_posthocs
 from scipy import stats
 
-from mjsuff.experiment.measures import evaluated_rows, measure_group
+from mjsuff.experiment.measures import evaluated_rows
 
 RULES = ("nevd", "patience", "validation")
 
@@ -40,16 +52,26 @@ class RuleComparison:
 
 
 def observations(steps: pd.DataFrame, thresholds: list[float]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(F1 per rule, param and ε), (demos needed per rule, param and replicate)."""
-    f1_rows, demo_rows = [], []
+    """One row per rule and replicate: (share of correct decisions, column ``correct``), (demos
+    needed averaged over the rule's parameters, column ``demos``); see the module docstring."""
+    correct, demos = [], []
     for (rule, param), group in steps[steps["rule"].isin(RULES)].groupby(["rule", "param"]):
-        for eps in [float(param)] if rule == "nevd" else thresholds:
-            f1 = measure_group(group, False, eps)["f1"]
-            f1_rows.append({"rule": rule, "param": param, "epsilon": eps, "f1": f1})
         rows = evaluated_rows(group)
-        demo_rows += [{"rule": rule, "param": param, "replicate": r, "demos": int(n)}
-                      for r, n in zip(rows["replicate"], rows["step"], strict=True)]
-    return pd.DataFrame(f1_rows), pd.DataFrame(demo_rows)
+        replicate, stopped = rows["replicate"].to_numpy(), rows["stopped"].to_numpy(bool)
+        for eps in [float(param)] if rule == "nevd" else thresholds:
+            good = rows["true_nevd"].to_numpy(float) <= eps
+            right = (stopped == good).astype(float)
+            correct.append(pd.DataFrame({"rule": rule, "replicate": replicate, "correct": right}))
+        needed = rows["step"].to_numpy(float)
+        demos.append(pd.DataFrame({"rule": rule, "replicate": replicate, "demos": needed}))
+
+    def per_replicate(parts: list[pd.DataFrame], column: str) -> pd.DataFrame:
+        if not parts:
+            return pd.DataFrame(columns=["rule", "replicate", column])
+        frame = pd.concat(parts, ignore_index=True)
+        return frame.groupby(["rule", "replicate"], sort=True)[column].mean().reset_index()
+
+    return per_replicate(correct, "correct"), per_replicate(demos, "demos")
 
 
 def compare_rules(values: pd.DataFrame, column: str) -> RuleComparison | None:
