@@ -45,6 +45,9 @@ def figure_2(curves: dict[str, pd.DataFrame], max_step: int = 10) -> str:
     for step in range(1, max_step + 1):
         cells = []
         for curve in curves.values():
+            if not (curve["step"] == step).any():  # a run with fewer demos
+                cells.append("–")
+                continue
             row = curve[curve["step"] == step].iloc[0]
             cells.append(
                 f"{fmt(row['mean_bound'])} / {fmt(row['mean_true_nevd'], 3)} / {fmt(row['bound_accuracy'])}"
