@@ -157,6 +157,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         out.print(f"MuJoCo: {result.simulation['simulated_steps']:,} steps simulated; "
                   f"{result.simulation['diverged_rollouts']:,} diverged rollouts detected and "
                   "never scored", highlight=False)
+    sampler = result.sampler
+    if sampler.get("posteriors"):
+        capped = sampler["unconverged_posteriors"]
+        cfg = scenario.posterior
+        note = (f"{capped:,} hit the step cap ({cfg.max_steps}) first: flagged (converged = false "
+                "in steps.parquet) and never used to stop" if capped else "all converged")
+        out.print(f"MCMC: {sampler['posteriors']:,} posteriors (R̂ ≤ {cfg.rhat_target:g}, ESS ≥ "
+                  f"{cfg.ess_target:g}); {note}", highlight=False)
     if result.recording_error:
         err.print(f"[yellow]warning:[/] the recording was not merged: {result.recording_error}",
                   highlight=False, soft_wrap=True)

@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 
 from mjsuff.domains import get_domain
-from mjsuff.posterior import SamplerConfig, grid_posterior, sample_posterior, split_rhat
+from mjsuff.posterior import (
+    SamplerConfig,
+    chain_diagnostics,
+    grid_posterior,
+    quantile_ess,
+    rank_rhat,
+    sample_posterior,
+)
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +35,7 @@ def test_mcmc_matches_the_exact_grid_posterior(problem):
     # ~0.006; 0.04 and 0.025 are about four s.e. The grid (spacing ~0.018 rad) adds < 0.005.
     np.testing.assert_allclose(mean, exact.mean, atol=0.04)
     np.testing.assert_allclose(cov, exact.covariance, atol=0.025)
-    assert post.rhat < 1.05
+    assert post.converged and post.rhat <= 1.01
     assert 0.2 < post.acceptance_rate < 0.6
 
 
@@ -47,9 +54,52 @@ def test_samples_are_unit_vectors_and_seeded(problem):
     np.testing.assert_array_equal(a.samples, b.samples)
 
 
-def test_split_rhat_detects_disagreeing_chains():
+def test_rank_rhat_detects_disagreeing_chains():
     rng = np.random.default_rng(3)
     same = rng.normal(size=(4, 500, 2))
-    assert split_rhat(same) < 1.02
+    assert rank_rhat(same) < 1.02
     shifted = same + np.arange(4)[:, None, None]
-    assert split_rhat(shifted) > 1.5
+    assert rank_rhat(shifted) > 1.5
+    # A chain with the right mean but a wider spread: the folded (tail) R̂ catches it.
+    wide = same.copy()
+    wide[0] *= 3.0
+    assert rank_rhat(wide) > 1.05
+
+
+def test_ess_of_independent_and_dependent_draws():
+    rng = np.random.default_rng(4)
+    iid = rng.normal(size=(20, 100, 3))
+    d = chain_diagnostics(iid)
+    assert 1500 < d.ess_bulk < 2500 and 1500 < d.ess_tail < 2500
+    sticky = np.repeat(iid[:, :20], 5, axis=1)  # every draw repeated 5 times
+    assert chain_diagnostics(sticky).ess_bulk < 0.4 * 20 * 100
+    assert quantile_ess(sticky[..., 0], 0.95) < 0.4 * 20 * 100
+
+
+def test_converged_posterior_meets_its_targets(problem):
+    config = SamplerConfig(num_samples=500)
+    post = sample_posterior(problem, 3, config, np.random.default_rng(5))
+    assert post.converged
+    assert post.rhat <= config.rhat_target
+    assert min(post.ess_bulk, post.ess_tail) >= config.ess_target
+    assert config.burn_in < post.steps <= config.max_steps
+    # The kept draws are grouped by chain as the samples interleave them.
+    np.testing.assert_array_equal(post.by_chain(post.samples[:, 0]), post.chain_samples[:, :, 0])
+
+
+def test_a_run_that_hits_the_cap_is_flagged_not_converged(problem):
+    # An unreachable R̂ target and a cap of one round: the sampler stops at the cap and says so.
+    config = SamplerConfig(num_samples=200, burn_in=20, rhat_target=1.000001, max_steps=60)
+    post = sample_posterior(problem, 3, config, np.random.default_rng(6))
+    assert not post.converged
+    assert post.steps == 60
+    assert post.samples.shape == (200, 3)
+
+
+def test_effective_size_of_per_sample_values(problem):
+    post = sample_posterior(problem, 3, SamplerConfig(num_samples=500), np.random.default_rng(7))
+    values = post.samples[:, 0]
+    ess = post.effective_size(values, 0.95)
+    assert 100 < ess <= 500
+    # Constant values: every order statistic is the same, so they count as independent.
+    assert post.effective_size(np.zeros(500), 0.95) == 500

@@ -20,7 +20,7 @@ def test_shipped_scenarios_load_and_round_trip(path):
     scenario = load_scenario(path)
     again = tomllib.loads(scenario.to_toml())
     assert again["domain"]["name"] == scenario.domain.name
-    assert again["posterior"] == scenario.posterior.model_dump()
+    assert again["posterior"] == scenario.posterior.model_dump(exclude_none=True)
 
 
 @pytest.mark.parametrize(("text", "expected"), [
@@ -74,7 +74,17 @@ def test_overrides_are_parsed_as_toml_values(tmp_path):
       "rules.validation_intervals=[]"], "rules: at least one rule is needed", False),
     (["rules.nevd_thresholds=[]"], "rules.nevd_thresholds: the baselines are scored", False),
     (["posterior.num_samples=20"], "posterior.num_samples: at least 59 samples", False),
-    (["posterior.num_samples=60", "posterior.chains=80"], "at least one sample per chain", False),
+    (["posterior.num_samples=100", "posterior.min_ess=200"], "posterior.min_ess: the kept draws' "
+     "effective size cannot exceed num_samples (100)", False),
+    (["posterior.num_samples=60", "posterior.chains=80"], "posterior.num_samples: must be a multiple "
+     "of chains (80)", False),
+    (["posterior.rhat_target=1.0"], "posterior.rhat_target: input should be greater than 1", False),
+    (["posterior.min_ess=30"], "posterior.min_ess: the 0.95-confidence bound on the 0.95-VaR from "
+     "500 samples needs an effective size of at least 54", False),
+    (["posterior.max_steps=50"], "posterior.max_steps: at least burn_in + num_samples / chains × thin",
+     False),
+    (["posterior.max_steps=10000000"], "posterior.max_steps: input should be less than or equal to",
+     False),
     (["domain.params.rows=40"], "domain.params.rows: input should be less than or equal to 12",
      True),
 ])

@@ -11,6 +11,19 @@ the α-quantile is Binomial(n, α), so ``Z_j`` upper-bounds the α-VaR with conf
 Both are clipped to ``n − 1``. The lower bound used by PIOB (Eq. 12) is the mirror image: a
 ``(1−δ)``-confidence lower bound on the ``(1−α)``-quantile of ``X`` is minus the upper bound on
 the α-quantile of ``−X``.
+
+**Dependent draws.** Eqs. 8–9 assume ``n`` independent samples. MCMC draws are correlated, so the
+count of draws below the α-quantile varies more than Binomial(n, α): about as much as
+``(n / n_eff)·Binomial(n_eff, α)``, where ``n_eff`` is the effective sample size of the indicator
+``X ≤ q_α`` (the quantile ESS, ``mjsuff.posterior.diagnostics.quantile_ess``). Given ``ess``, the
+index keeps its confidence for the draws it gets:
+
+* ``"normal"``: ``j = ⌈nα + Φ⁻¹(1−δ)·n·√(α(1−α)/n_eff) − ½⌉``;
+* ``"binomial"``: ``j = ⌈(n/m)·F⁻¹(1 − δ; m, α)⌉`` with ``m = ⌊n_eff⌋``.
+
+With ``n_eff = n`` both are the independent-sample indices above; ``n_eff`` is capped at ``n``.
+When ``n_eff`` is too small for any order statistic to keep the confidence, the index clips to
+``n − 1`` and ``bound_is_valid`` says so.
 """
 
 from __future__ import annotations
@@ -24,34 +37,62 @@ from scipy.stats import binom, norm
 QuantileMethod = Literal["normal", "binomial"]
 
 
-def var_bound_index(n: int, alpha: float, delta: float, method: QuantileMethod = "normal") -> int:
-    """0-based index of the order statistic that bounds the α-VaR with confidence ``1 − δ``."""
+def _raw_index(n: int, alpha: float, delta: float, method: QuantileMethod, ess: float | None) -> int:
     if n < 1:
         raise ValueError(f"need at least one sample, got n={n}")
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
     if not 0.0 < delta < 1.0:
         raise ValueError(f"delta must be in (0, 1), got {delta}")
+    if ess is not None and not ess > 0.0:
+        raise ValueError(f"effective sample size must be positive, got {ess}")
+    n_eff = n if ess is None else min(float(ess), float(n))
     if method == "normal":
-        j = math.ceil(n * alpha + norm.ppf(1.0 - delta) * math.sqrt(n * alpha * (1 - alpha)) - 0.5)
-    elif method == "binomial":
-        j = int(binom.ppf(1.0 - delta, n, alpha))
-    else:
-        raise ValueError(f"method must be 'normal' or 'binomial', got {method!r}")
-    return min(max(j, 0), n - 1)
+        spread = norm.ppf(1.0 - delta) * n * math.sqrt(alpha * (1 - alpha) / n_eff)
+        return math.ceil(n * alpha + spread - 0.5)
+    if method == "binomial":
+        m = max(int(n_eff), 1)
+        return math.ceil(n / m * binom.ppf(1.0 - delta, m, alpha) - 1e-9)
+    raise ValueError(f"method must be 'normal' or 'binomial', got {method!r}")
 
 
-def upper_var_bound(values: np.ndarray, alpha: float, delta: float,
-                    method: QuantileMethod = "normal") -> float:
+def var_bound_index(
+    n: int, alpha: float, delta: float, method: QuantileMethod = "normal", ess: float | None = None
+) -> int:
+    """0-based index of the order statistic of ``n`` draws that bounds the α-VaR with confidence
+    ``1 − δ``; ``ess`` is the draws' effective sample size (None: independent draws)."""
+    return min(max(_raw_index(n, alpha, delta, method, ess), 0), n - 1)
+
+
+def bound_is_valid(
+    n: int, alpha: float, delta: float, method: QuantileMethod = "normal", ess: float | None = None
+) -> bool:
+    """True when ``n`` draws of effective size ``ess`` have an order statistic with the promised
+    confidence (the index needs no clipping)."""
+    return _raw_index(n, alpha, delta, method, ess) <= n - 1
+
+
+def upper_var_bound(
+    values: np.ndarray,
+    alpha: float,
+    delta: float,
+    method: QuantileMethod = "normal",
+    ess: float | None = None,
+) -> float:
     """``(1−δ)``-confidence upper bound on the α-VaR of ``values`` (used for nEVD, Eq. 6)."""
     values = np.asarray(values, dtype=float).ravel()
     if not np.all(np.isfinite(values)):
         raise ValueError("VaR bound needs finite samples")
-    j = var_bound_index(values.size, alpha, delta, method)
+    j = var_bound_index(values.size, alpha, delta, method, ess)
     return float(np.partition(values, j)[j])
 
 
-def lower_var_bound(values: np.ndarray, alpha: float, delta: float,
-                    method: QuantileMethod = "normal") -> float:
+def lower_var_bound(
+    values: np.ndarray,
+    alpha: float,
+    delta: float,
+    method: QuantileMethod = "normal",
+    ess: float | None = None,
+) -> float:
     """``(1−δ)``-confidence lower bound on the ``(1−α)``-quantile (used for PIOB, Eq. 12)."""
-    return -upper_var_bound(-np.asarray(values, dtype=float), alpha, delta, method)
+    return -upper_var_bound(-np.asarray(values, dtype=float), alpha, delta, method, ess)

@@ -4,8 +4,8 @@ The solver exploits linearity: for a fixed deterministic policy ``π`` the succe
 ``Ψ^π = (I − γ P_π)⁻¹ Φ`` give ``V^π_w = Ψ^π w`` and ``Q^π_w(s, a) = G^π(s, a)·w`` with
 ``G^π = Φ + γ P Ψ^π``. A policy is optimal for ``w`` exactly when no action improves on it
 (``max_a Q^π_w(s, a) ≤ Q^π_w(s, π(s))``), so a cache of optimal policies answers ``Q*_w`` for a
-batch of reward vectors with one matrix product per cached policy; only reward vectors that no
-cached policy is optimal for are solved (batched value iteration, then exact policy iteration).
+batch of reward vectors with one matrix product over every cached policy; only reward vectors that
+no cached policy is optimal for are solved (exact policy iteration, batched).
 """
 
 from __future__ import annotations
@@ -17,12 +17,6 @@ import numpy as np
 from mjsuff.domain import Demo, Domain
 
 _OPTIMALITY_TOL = 1e-9
-#: How many previous calls' solutions are tried first for the same rows (MCMC chains).
-_HINT_DEPTH = 4
-#: How many cached policies with the nearest representative weights are tried next.
-_NEAREST = 8
-#: Solved weight vectors remembered for the nearest-policy guess.
-_MAX_REPRESENTATIVES = 4096
 
 
 def greedy_actions(q: np.ndarray) -> np.ndarray:
@@ -111,60 +105,56 @@ class TabularMDP:
 
 
 class OptimalPolicyCache:
-    """Exact ``Q*_w`` for batches of reward vectors, reusing every optimal policy found so far."""
+    """Exact ``Q*_w`` for batches of reward vectors, reusing every optimal policy found so far.
+
+    With the successor features ``Ψ_m`` of the cached policies, ``V(s) = max_m Ψ_m(s)·w`` is a
+    lower bound on ``V*_w(s)`` (every policy's value is) and one matrix product for the whole
+    batch. It *is* ``V*_w`` exactly when it satisfies the Bellman optimality equation
+    (``max_a [R + γPV](s, a) ≤ V(s)`` everywhere: then ``V ≥ T^n V → V*``); only the reward
+    vectors for which it does not are solved, by batched policy iteration started from the greedy
+    policy of ``V`` (one improvement step, already paid for), and their policies are cached.
+    """
 
     def __init__(self, mdp: TabularMDP) -> None:
         self.mdp = mdp
-        s, a, k = mdp.num_states, mdp.num_actions, mdp.num_features
-        self._keys: dict[bytes, int] = {}
-        self._successors: list[np.ndarray] = []
-        self._size = 0
-        # Growable stacks (capacity doubles): Q-features and policies of the cached policies.
-        self._g_stack = np.empty((16, s * a, k))
-        self._pi_stack = np.empty((16, s), dtype=np.int64)
-        # Solved weight vectors and the cached policy each was solved by (nearest-policy guesses).
-        self._rep_w = np.empty((0, k))
-        self._rep_policy = np.empty(0, dtype=np.int64)
-        self._recent: list[np.ndarray] = []
+        self._keys: set[bytes] = set()
+        # Per state, the distinct successor-feature rows Ψ_m(s) of the cached policies (many
+        # policies agree at a state), flattened as (k, total) with each state's segment start.
+        self._rows: list[dict[bytes, np.ndarray]] = [{} for _ in range(mdp.num_states)]
+        self._flat = np.empty((mdp.num_features, 0))
+        self._segments = np.zeros(mdp.num_states, dtype=np.intp)
+        self._reward_features = mdp.features
+        # P as (S·A, S) for batched Bellman backups.
+        self._p_flat = mdp.transitions.reshape(-1, mdp.num_states)
 
     def __len__(self) -> int:
-        return self._size
+        return len(self._keys)
 
-    def _add(self, policies: np.ndarray, weights: np.ndarray, successors: np.ndarray
-             ) -> np.ndarray:
-        """Cache ``policies`` ``(r, S)`` (each optimal for its row of ``weights``, with successor
-        features ``successors`` ``(r, S, k)``) -> their cache indices."""
-        keys = [p.astype(np.int8).tobytes() for p in policies]
-        fresh: dict[bytes, int] = {}
-        for row, key in enumerate(keys):
-            if key not in self._keys and key not in fresh:
-                fresh[key] = row
-        if fresh:
-            rows = np.fromiter(fresh.values(), dtype=np.int64)
-            need = self._size + rows.size
-            while need > self._g_stack.shape[0]:
-                self._g_stack = np.concatenate([self._g_stack, np.empty_like(self._g_stack)])
-                self._pi_stack = np.concatenate([self._pi_stack, np.empty_like(self._pi_stack)])
-            mdp = self.mdp
-            new_successors = successors[rows]
-            g = mdp.features[None, :, None, :] + mdp.gamma * np.einsum(
-                "sat,mtk->msak", mdp.transitions, new_successors)
-            span = slice(self._size, need)
-            self._g_stack[span] = g.reshape(rows.size, -1, mdp.num_features)
-            self._pi_stack[span] = policies[rows]
-            self._successors.extend(new_successors)
-            for offset, key in enumerate(fresh):
-                self._keys[key] = self._size + offset
-            self._size = need
-        index = np.array([self._keys[key] for key in keys], dtype=np.int64)
-        room = _MAX_REPRESENTATIVES - self._rep_w.shape[0]
-        if room > 0:
-            self._rep_w = np.concatenate([self._rep_w, weights[:room]])
-            self._rep_policy = np.concatenate([self._rep_policy, index[:room]])
-        return index
+    def _add(self, policies: np.ndarray, successors: np.ndarray) -> None:
+        """Cache ``policies`` ``(r, S)`` with successor features ``successors`` ``(r, S, k)``."""
+        grew = False
+        for policy, psi in zip(policies, successors, strict=True):
+            key = policy.astype(np.int8).tobytes()
+            if key in self._keys:
+                continue
+            self._keys.add(key)
+            for state_rows, row in zip(self._rows, psi, strict=True):
+                state_rows.setdefault(np.round(row, 12).tobytes(), row)
+            grew = True
+        if grew:
+            sizes = [len(r) for r in self._rows]
+            self._segments = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
+            self._flat = np.concatenate([np.stack(list(r.values()), axis=1) for r in self._rows], axis=1)
 
-    def _policy_iteration(self, weights: np.ndarray, policies: np.ndarray
-                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _backup(self, weights: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """``Q = R + γ P V`` for rows of ``weights`` ``(r, k)`` and ``values`` ``(r, S)``."""
+        s, a = self.mdp.num_states, self.mdp.num_actions
+        q = (values @ self._p_flat.T).reshape(-1, s, a)
+        return (weights @ self._reward_features.T)[:, :, None] + self.mdp.gamma * q
+
+    def _policy_iteration(
+        self, weights: np.ndarray, policies: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Exact policy iteration for each row of ``weights`` ``(r, k)``, batched.
 
         Starts from ``policies`` ``(r, S)``; returns optimal policies ``(r, S)``, ``Q*``
@@ -175,14 +165,13 @@ class OptimalPolicyCache:
         s_idx = np.arange(mdp.num_states)
         eye = np.eye(mdp.num_states)
         features = np.broadcast_to(mdp.features, (weights.shape[0], *mdp.features.shape))
-        rewards = weights @ mdp.features.T  # (r, S)
         policies = policies.copy()
         rows = np.arange(weights.shape[0])[:, None]
         for _ in range(1000):
             p_pi = mdp.transitions[s_idx, policies]  # (r, S, S)
             successors = np.linalg.solve(eye - mdp.gamma * p_pi, features)  # (r, S, k)
             values = np.einsum("rsk,rk->rs", successors, weights)
-            q = rewards[:, :, None] + mdp.gamma * np.einsum("sat,rt->rsa", mdp.transitions, values)
+            q = self._backup(weights, values)
             current = q[rows, s_idx, policies]
             best = q.argmax(axis=2)
             improve = q[rows, s_idx, best] > current + _OPTIMALITY_TOL * (1.0 + np.abs(current))
@@ -191,85 +180,44 @@ class OptimalPolicyCache:
             policies = np.where(improve, best, policies)
         raise RuntimeError("policy iteration did not converge")
 
-    def _resolve(self, pending: np.ndarray, candidates: np.ndarray, weights: np.ndarray,
-                 q_out: np.ndarray, which: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Try ``candidates`` (``(len(pending), B)`` cached indices) for the ``pending`` rows.
-
-        Writes the rows some candidate is optimal for into ``q_out``/``which``; returns the rows
-        still pending and, for each, a policy-iteration start: the greedy improvement of its best
-        candidate (one policy-iteration step, already paid for).
-        """
-        s, a = self.mdp.num_states, self.mdp.num_actions
-        unique, slot = np.unique(candidates, return_inverse=True)
-        slot = slot.reshape(candidates.shape)
-        # One matrix product for every distinct candidate, then each row picks its own.
-        q_all = (weights[pending] @ self._g_stack[unique].reshape(-1, self.mdp.num_features).T)
-        q_all = q_all.reshape(pending.size, unique.size, s, a)
-        q = q_all[np.arange(pending.size)[:, None], slot]  # (n, B, S, A)
-        on_policy = np.take_along_axis(q, self._pi_stack[candidates][..., None], axis=3)[..., 0]
-        limit = on_policy + _OPTIMALITY_TOL * (1.0 + np.abs(on_policy))  # (n, B, S)
-        ok = (q <= limit[..., None]).reshape(*candidates.shape, -1).all(axis=2)  # (n, B)
-        found = ok.any(axis=1)
-        rows = np.flatnonzero(found)
-        if rows.size:
-            first = ok[rows].argmax(axis=1)
-            q_out[pending[rows]] = q[rows, first]
-            which[pending[rows]] = candidates[rows, first]
-        rest = np.flatnonzero(~found)
-        best = on_policy[rest].sum(axis=2).argmax(axis=1)
-        return pending[rest], greedy_actions(q[rest, best])
+    def _cached_values(self, weights: np.ndarray) -> np.ndarray:
+        """``max_m Ψ_m(s)·w`` over the cached policies -> ``(N, S)`` (a lower bound on ``V*``)."""
+        return np.maximum.reduceat(weights @ self._flat, self._segments, axis=1)
 
     def solve(self, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Optimal Q-values ``(N, S, A)`` and the index of an optimal cached policy per weight.
-
-        Each weight is first tried against the policies that solved the same row in the last few
-        calls of the same size (MCMC proposals stay near their chain) and those found for the
-        nearest solved weights; the rest are solved exactly by batched policy iteration,
-        warm-started from the nearest cached policy, and cached.
-        """
+        """Optimal Q-values ``(N, S, A)`` and values ``(N, S)`` for weights ``(N, k)``."""
         weights = np.atleast_2d(np.asarray(weights, dtype=float))
         n = weights.shape[0]
         s, a = self.mdp.num_states, self.mdp.num_actions
-        q_out = np.empty((n, s, a))
-        which = np.full(n, -1, dtype=np.int64)
-        pending = np.arange(n)
-        start = None
-        if self._size:
-            similarity = weights @ self._rep_w.T
-            if similarity.shape[1] > _NEAREST:
-                nearest = np.argpartition(-similarity, _NEAREST - 1, axis=1)[:, :_NEAREST]
-                first = np.take_along_axis(similarity, nearest, axis=1).argmax(axis=1)
-                rows = np.arange(n)
-                closest = nearest[rows, first]
-                nearest[rows, first] = nearest[:, 0]
-                nearest[:, 0] = closest
-            else:
-                nearest = np.argsort(-similarity, axis=1)
-            near = self._rep_policy[nearest]
-            recent = [h[:, None] for h in self._recent if h.shape[0] == n]
-            guesses = np.concatenate([*recent, near], axis=1)
-            pending, start = self._resolve(pending, guesses, weights, q_out, which)
+        if self._keys:
+            values = self._cached_values(weights)
+            q = self._backup(weights, values)
+            slack = _OPTIMALITY_TOL * (1.0 + np.abs(values))
+            pending = np.flatnonzero((q.max(axis=2) > values + slack).any(axis=1))
+            start = greedy_actions(q[pending])
+        else:
+            values, q = np.empty((n, s)), np.empty((n, s, a))
+            pending = np.arange(n)
+            # No cached policy yet: start from the myopic policy (best expected next reward).
+            start = greedy_actions(
+                np.einsum("sat,rt->rsa", self.mdp.transitions, weights @ self.mdp.features.T)
+            )
         if pending.size:
             w = weights[pending]
-            if start is None:
-                # No cached guess yet: start from the myopic policy (best expected next reward).
-                start = greedy_actions(
-                    np.einsum("sat,rt->rsa", self.mdp.transitions, w @ self.mdp.features.T))
-            policies, q, successors = self._policy_iteration(w, start)
-            q_out[pending] = q
-            which[pending] = self._add(policies, w, successors)
-        self._recent = [which, *self._recent[: _HINT_DEPTH - 1]]
-        return q_out, which
+            policies, q_new, successors = self._policy_iteration(w, start)
+            q[pending] = q_new
+            values[pending] = np.einsum("rsk,rk->rs", successors, w)
+            self._add(policies, successors)
+        return q, values
 
-    def optimal_values(self, weights: np.ndarray) -> np.ndarray:
-        """``V*_w(s)`` for weights ``(N, k)`` -> ``(N, S)``."""
-        weights = np.atleast_2d(weights)
-        _, which = self.solve(weights)
-        out = np.empty((weights.shape[0], self.mdp.num_states))
-        for m in np.unique(which):
-            rows = which == m
-            out[rows] = weights[rows] @ self._successors[m].T
-        return out
+    def optimal_values(self, weights: np.ndarray, batch: int = 256) -> np.ndarray:
+        """``V*_w(s)`` for weights ``(N, k)`` -> ``(N, S)``, ``batch`` rows at a time (memory)."""
+        weights = np.atleast_2d(np.asarray(weights, dtype=float))
+        return (
+            np.concatenate([self.solve(weights[i : i + batch])[1] for i in range(0, weights.shape[0], batch)])
+            if len(weights)
+            else (np.empty((0, self.mdp.num_states)))
+        )
 
 
 class TabularDomain(Domain):
@@ -299,8 +247,11 @@ class TabularDomain(Domain):
         self.pool = np.flatnonzero(~mdp.terminal)
         self.baseline_policy = baseline_policy
         n = mdp.num_states
-        self.layout = (np.stack([np.zeros(n), np.arange(n)], axis=1) if layout is None
-                       else np.asarray(layout, dtype=float))
+        self.layout = (
+            np.stack([np.zeros(n), np.arange(n)], axis=1)
+            if layout is None
+            else np.asarray(layout, dtype=float)
+        )
         self.cache = OptimalPolicyCache(mdp)
         self._true_q = self.cache.solve(self.true_weights[None])[0][0]
         uniform = np.full((mdp.num_states, mdp.num_actions), 1.0 / mdp.num_actions)

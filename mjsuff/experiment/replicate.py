@@ -152,11 +152,12 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         if key not in posteriors:
             used = [d for j, d in enumerate(demos) if j not in key]
             rng = np.random.default_rng(seed_sequence(scenario, replicate, "mcmc", n, *sorted(key)))
-            # Held-out posteriors only serve their MAP: keep one sample per chain.
+            # Held-out posteriors only serve their MAP: keep one sample per chain, one round.
             settings = scenario.posterior if not key else map_only
             post = sample_posterior(
                 lambda w: domain.log_likelihood(w, used, cfg.beta),
-                domain.num_features, settings, rng, initial=previous.get(key))
+                domain.num_features, settings, rng, initial=previous.get(key),
+                until_converged=not key)
             posteriors[key] = (post, domain.plan(post.map_weights))
         return posteriors[key]
 
@@ -182,12 +183,14 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         v_robot = policy_values(w, mu_robot, sw)
         nevd = normalized_evd(v_opt, v_robot, policy_values(w, mu_rand, sw))
         piob = percent_improvement(v_robot, policy_values(w, mu_base, sw))
-        nevd_bound = upper_var_bound(nevd, suff.alpha, suff.delta, suff.quantile_method)
+        nevd_ess = post.effective_size(nevd, suff.alpha)
+        nevd_bound = upper_var_bound(nevd, suff.alpha, suff.delta, suff.quantile_method, nevd_ess)
         piob_finite = piob[np.isfinite(piob)]
-        piob_bound = (lower_var_bound(piob_finite, suff.alpha, suff.delta, suff.quantile_method)
+        piob_bound = (lower_var_bound(piob_finite, suff.alpha, suff.delta, suff.quantile_method,
+                                      post.effective_size(piob, 1.0 - suff.alpha))
                       if piob_finite.size else -math.inf)
         evidence = Evidence(domain, list(demos), map_policy, nevd_bound, piob_bound,
-                            lambda ex: posterior_excluding(ex)[1])
+                            lambda ex: posterior_excluding(ex)[1], post.converged)
         first_row = len(rows)
         simulation = domain.simulation_stats()
         for rule in rules:
@@ -210,6 +213,11 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
                 "map_log_likelihood": post.map_log_likelihood,
                 "acceptance_rate": post.acceptance_rate,
                 "rhat": post.rhat,
+                "ess_bulk": post.ess_bulk,
+                "ess_tail": post.ess_tail,
+                "bound_ess": nevd_ess,
+                "mcmc_steps": post.steps,
+                "converged": post.converged,
                 "simulated_steps": simulation.get("simulated_steps", 0),
                 "diverged_rollouts": simulation.get("diverged_rollouts", 0),
             })
@@ -221,7 +229,7 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
             if cfg.selection == "active":
                 pool_evd = v_opt_starts[:, domain.pool] - w @ mu_robot[domain.pool].T
                 next_start = active_choice(pool_evd, asked, suff.alpha, suff.delta,
-                                           suff.quantile_method)
+                                           suff.quantile_method, nevd_ess)
             else:
                 next_start = int(order[step])
     return rows

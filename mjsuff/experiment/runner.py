@@ -19,7 +19,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +64,7 @@ class RunResult:
     simulation: dict[str, int]
     cells: tuple[CellResult, ...] = ()
     recording_error: str | None = None
+    sampler: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -82,6 +83,23 @@ def simulation_totals(steps: pd.DataFrame) -> dict[str, int]:
         return {c: 0 for c in columns}
     last = steps.groupby("replicate")[list(columns)].max()
     return {c: int(last[c].sum()) for c in columns}
+
+
+def sampler_totals(steps: pd.DataFrame) -> dict[str, Any]:
+    """The posteriors of the finished replicates (one per replicate and step): how many, how many
+    hit the sampler's step cap before R̂ and ESS met their targets (``converged`` False; their
+    bounds lack the stated confidence and the bound rules did not stop on them), and their worst
+    R̂ and smallest ESS."""
+    if steps.empty or "converged" not in steps:
+        return {"posteriors": 0, "unconverged_posteriors": 0}
+    per_step = steps.drop_duplicates(["replicate", "step"])
+    return {
+        "posteriors": len(per_step),
+        "unconverged_posteriors": int((~per_step["converged"].astype(bool)).sum()),
+        "max_rhat": float(per_step["rhat"].max()),
+        "min_ess": float(per_step[["ess_bulk", "ess_tail"]].min(axis=1).min()),
+        "mean_mcmc_steps": float(per_step["mcmc_steps"].mean()),
+    }
 
 
 def merge_recordings(directory: Path) -> str | None:
@@ -141,16 +159,17 @@ def finalize(directory: Path, scenario: Scenario, started: float, interrupted: b
         atomic_write_parquet(directory / "steps.parquet", steps)
     write_json(directory / "summary.json", {"scenario": scenario.name, **summary})
     simulation = simulation_totals(steps)
+    sampler = sampler_totals(steps)
     run = {**_run_info(scenario, backend, recorded, started, interrupted),
            "planned_replicates": scenario.replicates, "completed_replicates": completed,
-           **simulation}
+           **simulation, "sampler": sampler}
     write_json(directory / "run.json", run)
     error = merge_recordings(directory)
     _drop_empty(directory / RECORDINGS)
     if error is not None:
         write_json(directory / "run.json", {**run, "recording_error": error})
     return RunResult(directory, completed, scenario.replicates, interrupted, summary, simulation,
-                     recording_error=error)
+                     recording_error=error, sampler=sampler)
 
 
 def _run_info(scenario: Scenario, backend: str, recorded: bool, started: float,
@@ -325,11 +344,13 @@ def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult
     completed = sum(c.result.completed for c in results)
     simulation = {k: sum(c.result.simulation[k] for c in results)
                   for k in ("simulated_steps", "diverged_rollouts")}
+    sampler = {k: sum(c.result.sampler.get(k, 0) for c in results)
+               for k in ("posteriors", "unconverged_posteriors")}
     write_json(directory / "run.json", {
         **_run_info(scenario, backend, recorded, started, interrupted), "cells": len(results),
         "planned_replicates": scenario.replicates * len(results), "completed_replicates": completed,
-        **simulation})
+        **simulation, "sampler": sampler})
     errors = [c.result.recording_error for c in results if c.result.recording_error]
     return RunResult(directory, completed, scenario.replicates * len(results), interrupted,
                      {"entries": [], "nevd_bound_by_step": []}, simulation, tuple(results),
-                     errors[0] if errors else None)
+                     errors[0] if errors else None, sampler)

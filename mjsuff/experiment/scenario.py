@@ -20,7 +20,7 @@ from typing import Annotated, Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from mjsuff.bounds.var_bound import QuantileMethod
+from mjsuff.bounds.var_bound import QuantileMethod, bound_is_valid
 from mjsuff.domains import REGISTRY, get_domain
 from mjsuff.experts.expert import ExpertSettings
 from mjsuff.posterior.sampler import SamplerConfig
@@ -102,9 +102,13 @@ class Scenario(_Strict):
             raise ValueError(f"posterior.num_samples: at least {needed} samples are needed for a "
                              f"{1 - d:g}-confidence bound on the {a:g}-VaR "
                              f"(got {self.posterior.num_samples})")
-        if self.posterior.num_samples < self.posterior.chains:
-            raise ValueError(f"posterior.num_samples: at least one sample per chain is needed "
-                             f"({self.posterior.chains} chains, got {self.posterior.num_samples})")
+        q = self.sufficiency.quantile_method
+        if not bound_is_valid(self.posterior.num_samples, a, d, q, self.posterior.ess_target):
+            least = next(m for m in range(1, self.posterior.num_samples + 1)
+                         if bound_is_valid(self.posterior.num_samples, a, d, q, m))
+            raise ValueError(f"posterior.min_ess: the {1 - d:g}-confidence bound on the {a:g}-VaR "
+                             f"from {self.posterior.num_samples} samples needs an effective size "
+                             f"of at least {least} (got {self.posterior.ess_target:g})")
         return self
 
     def cells(self, source: str = "scenario") -> list[SweepCell]:
@@ -189,11 +193,28 @@ class SweepCell:
         return re.sub(r"[^A-Za-z0-9_.=+-]", "-", name)
 
 
+def _error_key(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
+    """The dotted key an error is about: its location, and for a model's own check the key its
+    message starts with (``"max_steps: ..."`` inside ``posterior`` is ``posterior.max_steps``)."""
+    parts = [str(p) for p in (*prefix, *error["loc"])]
+    if error["type"] == "value_error":
+        head = error["msg"].removeprefix("Value error, ").split(":", 1)[0]
+        if re.fullmatch(r"[a-z_]+(\.[a-z_]+)*", head) and not (parts and head.startswith(parts[0])):
+            parts.append(head)
+        elif re.fullmatch(r"[a-z_]+(\.[a-z_]+)*", head):
+            parts = [head]
+    return ".".join(parts)
+
+
 def _describe(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
     loc = ".".join(str(p) for p in (*prefix, *error["loc"]))
-    if error["type"] == "value_error" and not error["loc"]:
+    if error["type"] == "value_error":
         message = error["msg"].removeprefix("Value error, ")
-        return f"{'.'.join(map(str, prefix)) + ': ' if prefix else ''}{message}"
+        key = _error_key(error, prefix)
+        head, sep, rest = message.partition(": ")
+        if sep and key.endswith(head):
+            return f"{key}: {rest}"
+        return f"{loc + ': ' if loc else ''}{message}"
     loc = loc or "(top level)"
     if error["type"] == "extra_forbidden":
         return f"{loc}: unknown key"
@@ -224,7 +245,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
 def _origin(source: str, error: dict[str, Any], prefix: tuple[Any, ...],
             overridden: set[str]) -> str:
     """``source``, or ``source (--set KEY)`` when the offending key came from an override."""
-    dotted = ".".join(str(p) for p in (*prefix, *error["loc"]))
+    dotted = _error_key(error, prefix)
     for key in sorted(overridden, key=len, reverse=True):
         if dotted == key or dotted.startswith(key + "."):
             return f"{source} (--set {key})"

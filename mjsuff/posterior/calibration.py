@@ -52,8 +52,9 @@ class BetaFit:
     at_lower: bool = False
 
 
-def fit_beta(log_likelihood: Callable[[float], float],
-             beta_range: tuple[float, float] = BETA_RANGE) -> BetaFit:
+def fit_beta(
+    log_likelihood: Callable[[float], float], beta_range: tuple[float, float] = BETA_RANGE
+) -> BetaFit:
     """The β maximizing ``log_likelihood(β)`` within ``beta_range`` (both > 0).
 
     Raises:
@@ -73,8 +74,9 @@ def fit_beta(log_likelihood: Callable[[float], float],
     def loss(log_beta: float) -> float:
         return -value(math.exp(log_beta))
 
-    result = minimize_scalar(loss, bounds=(math.log(low), math.log(high)), method="bounded",
-                             options={"xatol": 1e-6})
+    result = minimize_scalar(
+        loss, bounds=(math.log(low), math.log(high)), method="bounded", options={"xatol": 1e-6}
+    )
     beta, best = math.exp(float(result.x)), -float(result.fun)
     # Unbounded when the upper end is as good as the best point found: the likelihood still
     # climbs there, or has flattened onto its supremum (demos tied with their best alternative).

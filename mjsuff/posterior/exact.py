@@ -32,11 +32,11 @@ class GridPosterior:
         return (centred * self.probabilities[:, None]).T @ centred
 
 
-def grid_posterior(log_likelihood: LogLikelihood, num_points: int = 40_000,
-                   batch: int = 5_000) -> GridPosterior:
+def grid_posterior(
+    log_likelihood: LogLikelihood, num_points: int = 40_000, batch: int = 5_000
+) -> GridPosterior:
     """Evaluate ``log_likelihood`` on ``num_points`` Fibonacci-sphere points and normalize."""
     points = fibonacci_sphere(num_points)
-    ll = np.concatenate([log_likelihood(points[i : i + batch])
-                         for i in range(0, num_points, batch)])
+    ll = np.concatenate([log_likelihood(points[i : i + batch]) for i in range(0, num_points, batch)])
     p = np.exp(ll - ll.max())
     return GridPosterior(points, p / p.sum())

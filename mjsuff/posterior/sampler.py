@@ -1,41 +1,127 @@
 """Metropolis sampling of reward weights on the unit sphere (Bayesian IRL, paper §3.1.2, App. B).
 
-Several chains run side by side, so every step evaluates the likelihood for a batch of proposals.
-Proposals are Gaussian perturbations renormalized to the sphere (symmetric, so the Metropolis ratio
-is the likelihood ratio under the uniform prior). Each chain adapts its step size during burn-in
-with the paper's rule ``σ ← σ + σ/√(i+1)·(r − r*)`` (``r`` the chain's acceptance rate so far,
-``r*`` the target): steps grow while too many proposals are accepted and shrink while too few are.
-The step is frozen after burn-in so the kept samples come from a fixed Markov kernel.
+**Kernel.** Several chains run side by side, so every step evaluates the likelihood for a batch of
+proposals. Each chain walks in the ambient space ``R^k`` on ``v``, with target
+``π(v) ∝ L(v/‖v‖)·exp(−‖v‖²/2)``: since ``v/‖v‖`` of a standard normal ``v`` is uniform on the
+sphere and independent of ``‖v‖``, the direction ``w = v/‖v‖`` of a draw from ``π`` is a draw
+from the posterior under the uniform prior. In ``R^k`` a Gaussian proposal
+``v' = v + σ·(2.38/√k)·C^{1/2} z`` is symmetric, so the Metropolis ratio is
+``L(w')/L(w)·exp((‖v‖² − ‖v'‖²)/2)``; and ``C`` can follow the posterior's shape. That matters:
+with a few demos the posterior is a thin ridge (one weight pinned to ~0.02, another free over most
+of ``[−1, 1]``), along which isotropic steps sized for the thin direction need thousands of steps.
+
+**Warm-up** (``burn_in`` steps, discarded). Each chain adapts its scale ``σ`` with the paper's
+rule ``σ ← σ + σ/√(i+1)·(r − r*)`` (``r`` the acceptance rate since the last change of ``C``,
+``r*`` the target). ``C`` starts as the identity and is replaced, after each quarter of warm-up,
+by the covariance of every chain's ``v`` over the last quarter (pooled, so chains in different
+places widen it). Both are frozen after warm-up, so the kept samples come from a fixed kernel.
+
+**Run until converged.** After warm-up the chains run in rounds whose length doubles. After each
+round the *window* is the second half of every post-warm-up step (the first round: all of them);
+the first half of a longer run is discarded as further burn-in. The kept draws are the window
+thinned evenly to ``num_samples / chains`` per chain (so the longer the run, the closer to
+independent they are). The run stops when the window's rank-normalized split-R̂ (every
+coordinate of ``w``) is at most ``rhat_target`` and the kept draws' bulk- and tail-ESS are at
+least ``min_ess`` (default 0.4 × ``num_samples``), or when the next round would pass
+``max_steps`` per chain: then the posterior is returned with ``converged = False``, for the
+caller to flag, never silently as converged.
+Assumption: a window with R̂ ≤ 1.01 whose chains started over-dispersed is from the stationary
+distribution (Vehtari et al. 2021); chains that all share one wrong mode cannot be detected.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from mjsuff.posterior.diagnostics import split_rhat
+from mjsuff.posterior.diagnostics import (
+    ChainDiagnostics,
+    chain_diagnostics,
+    quantile_ess,
+    rank_rhat,
+)
 from mjsuff.sphere import normalize, random_unit_vectors
 
 LogLikelihood = Callable[[np.ndarray], np.ndarray]
 """Maps a batch of weights ``(N, k)`` to log-likelihoods ``(N,)``."""
 
+#: Share of independence proposals drawn from the prior ``N(0, I)`` rather than the fitted
+#: Gaussian: it keeps ``π/q`` bounded (``≤ max L / (DEFENSIVE · Z)``), so the jumps never stall
+#: in a tail the fit missed.
+DEFENSIVE = 0.05
+#: Bandwidth of the kernel density proposal as a multiple of Scott's rule.
+INFLATE = 1.3
+#: Most kernel centres of the independence proposal.
+MAX_CENTRES = 100
+#: Candidates per chain in one multiple-try jump.
+TRIES = 4
+#: Least steps per chain in the first window after warm-up.
+FIRST_WINDOW = 200
+#: Once the proposals are fitted, one step in this many is a random-walk step, the rest jumps.
+WALK_EVERY = 4
+
 
 class SamplerConfig(BaseModel):
-    """MCMC settings (paper defaults: 500 samples, start step 0.5, 40% target acceptance)."""
+    """MCMC settings (paper defaults: 500 samples, start step 0.5, 40% target acceptance) and the
+    convergence targets (module docstring)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
-    num_samples: int = Field(500, ge=10, description="posterior samples kept over all chains")
-    chains: int = Field(20, ge=2, description="independent chains run side by side")
-    burn_in: int = Field(75, ge=0, description="steps per chain discarded (step adapts here)")
-    thin: int = Field(1, ge=1, description="keep every thin-th step after burn-in")
+    num_samples: int = Field(500, ge=10, le=100_000, description="posterior samples kept over all chains")
+    chains: int = Field(20, ge=2, le=1_000, description="independent chains run side by side")
+    burn_in: int = Field(
+        100, ge=0, le=100_000, description="warm-up steps per chain, discarded (the step adapts here)"
+    )
+    thin: int = Field(
+        1, ge=1, le=1_000, description="least thinning of the kept draws (more when the run is longer)"
+    )
+    rhat_target: float = Field(
+        1.01, gt=1.0, le=2.0, description="converged when rank-normalized split-R̂ is at most this"
+    )
+    min_ess: float | None = Field(
+        None, gt=0.0, description="bulk- and tail-ESS the kept draws need (default: 0.4 × num_samples)"
+    )
+    max_steps: int = Field(4_000, ge=1, le=1_000_000, description="cap on steps per chain, warm-up included")
     step_size: float = Field(0.5, gt=0.0, le=10.0, description="initial proposal standard deviation")
     target_acceptance: float = Field(0.4, gt=0.0, lt=1.0, description="adaptation target")
-    init_candidates: int = Field(4, ge=1, description="start candidates per chain; it takes the best")
+    init_candidates: int = Field(
+        4, ge=1, le=1_000, description="start candidates per chain; it takes the best"
+    )
     stranded_gap: float = Field(10.0, gt=0.0, description="log-likelihood gap that restarts a chain")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> SamplerConfig:
+        if self.num_samples % self.chains:
+            raise ValueError(
+                f"num_samples: must be a multiple of chains ({self.chains}) so every "
+                f"chain keeps the same number of draws (got {self.num_samples})"
+            )
+        if self.min_ess is not None and self.min_ess > self.num_samples:
+            raise ValueError(
+                f"min_ess: the kept draws' effective size cannot exceed num_samples "
+                f"({self.num_samples}), got {self.min_ess:g}"
+            )
+        least = self.burn_in + self.num_samples // self.chains * self.thin
+        if self.max_steps < least:
+            raise ValueError(
+                f"max_steps: at least burn_in + num_samples / chains × thin = {least} "
+                f"steps per chain are needed, got {self.max_steps}"
+            )
+        return self
+
+    @property
+    def ess_target(self) -> float:
+        """``min_ess``, or 0.4 × ``num_samples`` when unset."""
+        return self.min_ess if self.min_ess is not None else 0.4 * self.num_samples
+
+    @property
+    def per_chain(self) -> int:
+        """Draws kept per chain."""
+        return self.num_samples // self.chains
 
 
 @dataclass(frozen=True)
@@ -43,13 +129,18 @@ class Posterior:
     """Samples from ``P(w | D)`` and their diagnostics.
 
     Attributes:
-        samples: ``(num_samples, k)`` unit vectors, chains interleaved.
+        samples: ``(num_samples, k)`` unit vectors, chains interleaved (sample ``i`` is draw
+            ``i // chains`` of chain ``i % chains``).
         log_likelihoods: ``(num_samples,)`` log-likelihood of each sample.
         chain_samples: ``(chains, per_chain, k)`` the same samples by chain.
         map_weights: Highest-likelihood weights visited (the MAP under the uniform prior).
         map_log_likelihood: Its log-likelihood.
-        acceptance_rate: Mean acceptance after burn-in over all chains.
-        rhat: Largest split-R̂ over the ``k`` coordinates.
+        acceptance_rate: Mean acceptance after warm-up over all chains.
+        rhat: Largest rank-normalized split-R̂ of the final window (all its draws).
+        ess_bulk: Smallest bulk-ESS of the kept draws over the coordinates.
+        ess_tail: Smallest tail-ESS of the kept draws over the coordinates.
+        steps: Steps run per chain, warm-up included.
+        converged: The targets were met within ``max_steps`` (False: the run hit the cap).
     """
 
     samples: np.ndarray
@@ -59,6 +150,29 @@ class Posterior:
     map_log_likelihood: float
     acceptance_rate: float
     rhat: float
+    ess_bulk: float
+    ess_tail: float
+    steps: int
+    converged: bool
+
+    def by_chain(self, values: np.ndarray) -> np.ndarray:
+        """Per-sample ``values`` ``(num_samples,)`` regrouped as ``(chains, per_chain)``."""
+        chains = self.chain_samples.shape[0]
+        return np.asarray(values).reshape(-1, chains).T
+
+    def effective_size(self, values: np.ndarray, prob: float) -> float:
+        """Effective sample size of the ``prob``-quantile of per-sample ``values``: their
+        chains' quantile ESS, at most the sample count — what an order statistic near that
+        quantile gets (``mjsuff.bounds.var_bound``). Non-finite values count as the largest; a
+        constant indicator (every draw on one side, so every order statistic is the same)
+        counts as independent."""
+        values = np.asarray(values, dtype=float)
+        finite = np.isfinite(values)
+        if not finite.any():
+            return float(values.size)
+        values = np.where(finite, values, values[finite].max())
+        ess = quantile_ess(self.by_chain(values), prob)
+        return float(values.size) if math.isnan(ess) else min(ess, float(values.size))
 
 
 def _checked(ll: np.ndarray) -> np.ndarray:
@@ -68,32 +182,148 @@ def _checked(ll: np.ndarray) -> np.ndarray:
     return ll
 
 
-def sample_posterior(
+class _Chains:
+    """The chains' states in ``R^k``, their proposals, and the MAP visited.
+
+    Attributes (per chain): ``v`` the state, ``ll`` its log-likelihood, ``lq`` its log density
+    under the independence proposal, ``sigma`` the random walk's scale.
+    """
+
+    def __init__(
+        self,
+        log_likelihood: LogLikelihood,
+        w: np.ndarray,
+        ll: np.ndarray,
+        step_size: float,
+        rng: np.random.Generator,
+    ) -> None:
+        c, k = w.shape
+        self.log_likelihood, self.rng = log_likelihood, rng
+        self.v = w * np.sqrt(rng.chisquare(k, size=c))[:, None]
+        self.ll = ll
+        self.lq = np.zeros(c)
+        self.sigma = np.full(c, step_size)
+        self.shape = np.eye(k)  # C^{1/2}, scaled by 2.38/√k
+        self.fitted = False
+        best = int(np.argmax(ll))
+        self.map_w, self.map_ll = w[best].copy(), float(ll[best])
+
+    @property
+    def w(self) -> np.ndarray:
+        return normalize(self.v)
+
+    def step(self) -> np.ndarray:
+        """One random-walk Metropolis step of every chain; returns which were accepted.
+
+        The proposal ``v + σ·C^{1/2}z`` is symmetric, so the ratio is the target's alone.
+        """
+        c, k = self.v.shape
+        proposal = self.v + self.sigma[:, None] * (self.rng.standard_normal((c, k)) @ self.shape.T)
+        ll_prop = _checked(self.log_likelihood(normalize(proposal)))
+        log_ratio = (
+            ll_prop
+            - self.ll
+            + 0.5 * (np.einsum("ck,ck->c", self.v, self.v) - np.einsum("ck,ck->c", proposal, proposal))
+        )
+        accept = np.log(self.rng.random(c)) < log_ratio
+        self.v = np.where(accept[:, None], proposal, self.v)
+        self.ll = np.where(accept, ll_prop, self.ll)
+        if self.fitted:
+            self.lq = np.where(accept, self._log_q(proposal), self.lq)
+        self._track_map()
+        return accept
+
+    def jump(self) -> np.ndarray:
+        """One independent multiple-try Metropolis step (I-MTM; Martino & Read 2013) from the
+        fitted proposal ``q`` (``fit``); returns which chains moved.
+
+        Each chain draws ``TRIES`` candidates ``y_i ~ q`` with importance weights
+        ``ω(y) = π(y)/q(y)``, picks ``y_j`` with probability ``ω(y_j)/Σω`` and moves there with
+        probability ``min(1, Σ_i ω(y_i) / (Σ_i ω(y_i) − ω(y_j) + ω(v)))``. This leaves ``π``
+        invariant, and accepts far more often than one independence proposal.
+        """
+        c, k = self.v.shape
+        m = TRIES
+        z = self.rng.standard_normal((c * m, k))
+        centre = self.centres[self.rng.integers(len(self.centres), size=c * m)]
+        fitted = self.rng.random(c * m) >= DEFENSIVE
+        y = np.where(fitted[:, None], centre + z @ self.spread.T, z)
+        lq = self._log_q(y)
+        ll = _checked(self.log_likelihood(normalize(y)))
+        log_w = (ll - 0.5 * np.einsum("ck,ck->c", y, y) - lq).reshape(c, m)
+        log_w_here = self.ll - 0.5 * np.einsum("ck,ck->c", self.v, self.v) - self.lq
+        top = np.maximum(log_w.max(axis=1), log_w_here)
+        weight = np.exp(log_w - top[:, None])
+        total = weight.sum(axis=1)
+        pick = np.minimum((weight.cumsum(axis=1) < (self.rng.random(c) * total)[:, None]).sum(axis=1), m - 1)
+        picked = weight[np.arange(c), pick]
+        move = self.rng.random(c) * (total - picked + np.exp(log_w_here - top)) < total
+        chosen = np.arange(c) * m + pick
+        self.v = np.where(move[:, None], y[chosen], self.v)
+        self.ll = np.where(move, ll[chosen], self.ll)
+        self.lq = np.where(move, lq[chosen], self.lq)
+        self._track_map()
+        return move
+
+    def _track_map(self) -> None:
+        top = int(np.argmax(self.ll))
+        if self.ll[top] > self.map_ll:
+            self.map_w, self.map_ll = normalize(self.v[top]), float(self.ll[top])
+
+    def _log_q(self, v: np.ndarray) -> np.ndarray:
+        """Log density (up to a constant) of the independence proposal at ``v`` ``(c, k)``."""
+        zv = v @ self.whiten.T
+        d2 = (
+            np.einsum("ck,ck->c", zv, zv)[:, None]
+            + self.centres_norm2[None]
+            - 2.0 * zv @ self.centres_white.T
+        )  # (c, J) squared whitened distances
+        top = -0.5 * d2.min(axis=1)
+        kde = top + np.log(np.exp(-0.5 * d2 - top[:, None]).sum(axis=1))
+        fit = kde - self.log_norm
+        prior = -0.5 * np.einsum("ck,ck->c", v, v)
+        return np.logaddexp(np.log1p(-DEFENSIVE) + fit, np.log(DEFENSIVE) + prior)
+
+    def fit(self, recent: np.ndarray) -> None:
+        """Fit both proposals to ``recent`` states ``(chains, steps, k)``: the random walk's
+        shape ``C`` (their covariance) and the independence proposal, a Gaussian kernel density
+        estimate on them (bandwidth ``INFLATE ×`` Scott's rule)."""
+        k = recent.shape[-1]
+        flat = recent.reshape(-1, k)
+        if len(flat) > MAX_CENTRES:
+            flat = flat[np.linspace(0, len(flat) - 1, MAX_CENTRES).astype(int)]
+        cov = np.cov(flat.T) + 1e-6 * np.eye(k)
+        root = np.linalg.cholesky(cov)
+        self.shape = 2.38 / math.sqrt(k) * root
+        self.spread = INFLATE * len(flat) ** (-1.0 / (k + 4)) * root
+        self.whiten = np.linalg.inv(self.spread)
+        self.centres = flat.copy()
+        self.centres_white = flat @ self.whiten.T
+        self.centres_norm2 = np.einsum("jk,jk->j", self.centres_white, self.centres_white)
+        self.log_norm = math.log(len(flat)) + float(np.log(np.diag(self.spread)).sum())
+        self.fitted = True
+        self.lq = self._log_q(self.v)
+
+    def move(self, t: int) -> np.ndarray | None:
+        """Step ``t`` of the kernel: once fitted, a random walk on every ``WALK_EVERY``-th step
+        and independence jumps between; returns the random walk's acceptances (None after a
+        jump)."""
+        if self.fitted and t % WALK_EVERY:
+            self.jump()
+            return None
+        return self.step()
+
+
+def _initial_states(
     log_likelihood: LogLikelihood,
     num_features: int,
     config: SamplerConfig,
     rng: np.random.Generator,
-    initial: np.ndarray | None = None,
-) -> Posterior:
-    """Run ``config.chains`` adaptive Metropolis chains on the sphere in ``R^num_features``.
-
-    Args:
-        initial: Optional ``(M, k)`` unit vectors to start from (e.g. the previous posterior's
-            samples when one more demo arrives); each chain's start candidates are drawn from
-            them, together with uniform draws.
-
-    At the end of burn-in, a chain whose log-likelihood lies more than ``stranded_gap`` below the
-    best chain's is moved to the state of a randomly chosen well-placed chain. This is a
-    heuristic against chains stuck in a far tail (1/chains of the samples would come from there
-    and inflate the upper quantiles the bounds read); it assumes a state that much less likely is
-    not in a broad mode of comparable total mass. Set ``stranded_gap`` very large to disable it.
-    """
-    c = config.chains
-    per_chain = -(-config.num_samples // c)
-    steps = config.burn_in + per_chain * config.thin
-    # Start each chain at the best of a few candidates: over-dispersed, yet not stranded in a
-    # far tail that burn-in would have to climb out of.
-    m = config.init_candidates
+    initial: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each chain starts at the best of a few candidates: over-dispersed, yet not stranded in a
+    far tail that warm-up would have to climb out of."""
+    c, m = config.chains, config.init_candidates
     pool = random_unit_vectors(rng, c * m, num_features)
     if initial is not None and len(initial):
         take = rng.integers(len(initial), size=c * m)
@@ -101,50 +331,113 @@ def sample_posterior(
         pool[use] = normalize(np.asarray(initial, dtype=float)[take[use]])
     pool_ll = _checked(log_likelihood(pool)).reshape(c, m)
     pick = pool_ll.argmax(axis=1)
-    w = pool.reshape(c, m, num_features)[np.arange(c), pick]
-    ll = pool_ll[np.arange(c), pick]
-    sigma = np.full(c, config.step_size)
-    accepted = np.zeros(c)
-    accepted_after_burn = 0
-    best = int(np.argmax(ll))
-    map_w, map_ll = w[best].copy(), float(ll[best])
-    kept = np.empty((c, per_chain, num_features))
-    kept_ll = np.empty((c, per_chain))
-    for t in range(steps):
-        proposal = normalize(w + sigma[:, None] * rng.standard_normal((c, num_features)))
-        ll_prop = _checked(log_likelihood(proposal))
-        accept = np.log(rng.random(c)) < ll_prop - ll
-        w = np.where(accept[:, None], proposal, w)
-        ll = np.where(accept, ll_prop, ll)
-        top = int(np.argmax(ll))
-        if ll[top] > map_ll:
-            map_w, map_ll = w[top].copy(), float(ll[top])
-        if t < config.burn_in:
-            accepted += accept
-            rate = accepted / (t + 1)
-            sigma = sigma + sigma / np.sqrt(t + 1) * (rate - config.target_acceptance)
-            sigma = np.clip(sigma, 1e-4, 10.0)
-            if t == config.burn_in - 1:
-                stranded = ll < ll.max() - config.stranded_gap
-                if stranded.any():
-                    donors = rng.choice(np.flatnonzero(~stranded), size=int(stranded.sum()))
-                    w[stranded], ll[stranded] = w[donors], ll[donors]
-                    sigma[stranded] = sigma[donors]
-        else:
-            accepted_after_burn += int(accept.sum())
-            j, r = divmod(t - config.burn_in, config.thin)
-            if r == config.thin - 1:
-                kept[:, j] = w
-                kept_ll[:, j] = ll
-    flat = kept.transpose(1, 0, 2).reshape(-1, num_features)[: config.num_samples]
-    flat_ll = kept_ll.T.reshape(-1)[: config.num_samples]
-    after = max(steps - config.burn_in, 1) * c
+    return pool.reshape(c, m, num_features)[np.arange(c), pick], pool_ll[np.arange(c), pick]
+
+
+def _warm_up(chains: _Chains, config: SamplerConfig) -> None:
+    """``burn_in`` adaptive steps (module docstring); then chains stranded far below the best
+    move to a good one."""
+    c, k = chains.v.shape
+    quarter = max(config.burn_in // 4, 1)
+    recent = np.empty((c, quarter, k))
+    accepted, since = np.zeros(c), 0
+    for t in range(config.burn_in):
+        walked = chains.move(t)
+        recent[:, t % quarter] = chains.v
+        if walked is not None:
+            accepted += walked
+            since += 1
+            rate = accepted / since
+            sigma = chains.sigma + chains.sigma / np.sqrt(since) * (rate - config.target_acceptance)
+            chains.sigma = np.clip(sigma, 1e-4, 10.0)
+        if (t + 1) % quarter == 0 and t + 1 < config.burn_in and quarter * c > 2 * k:
+            chains.fit(recent)
+            chains.sigma = np.ones(c)
+            accepted, since = np.zeros(c), 0
+    if config.burn_in:
+        stranded = chains.ll < chains.ll.max() - config.stranded_gap
+        if stranded.any():
+            donors = chains.rng.choice(np.flatnonzero(~stranded), size=int(stranded.sum()))
+            chains.v[stranded], chains.ll[stranded] = chains.v[donors], chains.ll[donors]
+            chains.sigma[stranded] = chains.sigma[donors]
+
+
+def _thinned(window: int, keep: int) -> np.ndarray:
+    """``keep`` evenly spaced indices of a window of ``window`` draws, ending at its last."""
+    return window - 1 - (np.arange(keep)[::-1] * (window / keep)).astype(int)
+
+
+def sample_posterior(
+    log_likelihood: LogLikelihood,
+    num_features: int,
+    config: SamplerConfig,
+    rng: np.random.Generator,
+    initial: np.ndarray | None = None,
+    until_converged: bool = True,
+) -> Posterior:
+    """Run ``config.chains`` adaptive Metropolis chains on the sphere in ``R^num_features``.
+
+    Args:
+        initial: Optional ``(M, k)`` unit vectors to start from (e.g. the previous posterior's
+            samples when one more demo arrives); each chain's start candidates are drawn from
+            them, together with uniform draws.
+        until_converged: False runs a single round of ``num_samples / chains × thin`` steps after
+            warm-up whatever the diagnostics say (for callers that only need the MAP).
+
+    At the end of warm-up, a chain whose log-likelihood lies more than ``stranded_gap`` below the
+    best chain's is moved to the state of a randomly chosen well-placed chain. This is a
+    heuristic against chains stuck in a far tail (1/chains of the samples would come from there
+    and inflate the upper quantiles the bounds read); it assumes a state that much less likely is
+    not in a broad mode of comparable total mass. Set ``stranded_gap`` very large to disable it.
+    """
+    c, k, per_chain = config.chains, num_features, config.per_chain
+    chains = _Chains(
+        log_likelihood, *_initial_states(log_likelihood, k, config, rng, initial), config.step_size, rng
+    )
+    _warm_up(chains, config)
+    # The first round is at least FIRST_WINDOW steps: R̂ of a shorter window is mostly noise.
+    round_length = per_chain * config.thin
+    if until_converged:
+        round_length = min(max(round_length, FIRST_WINDOW), config.max_steps - config.burn_in)
+    capacity = round_length
+    draws = np.empty((c, capacity, k))
+    draws_ll = np.empty((c, capacity))
+    done = accepted = 0
+    while True:
+        if capacity < done + round_length:
+            capacity = done + round_length
+            draws = np.concatenate([draws, np.empty((c, capacity - draws.shape[1], k))], axis=1)
+            draws_ll = np.concatenate([draws_ll, np.empty((c, capacity - draws_ll.shape[1]))], axis=1)
+        for t in range(done, done + round_length):
+            walked = chains.move(t)
+            accepted += 0 if walked is None else int(walked.sum())
+            draws[:, t], draws_ll[:, t] = chains.v, chains.ll
+        done += round_length
+        first = 0 if done == round_length else done // 2
+        keep = first + _thinned(done - first, per_chain)
+        kept = normalize(draws[:, keep])
+        if not until_converged:
+            rhat, diagnostics, converged = math.nan, ChainDiagnostics(math.nan, math.nan, math.nan), False
+            break
+        rhat = rank_rhat(normalize(draws[:, first:done]))
+        diagnostics = chain_diagnostics(kept)
+        converged = rhat <= config.rhat_target and diagnostics.ess >= config.ess_target
+        # Double the post-warm-up run (each round as long as everything before it), up to the cap.
+        round_length = min(done, config.max_steps - config.burn_in - done)
+        if converged or round_length <= 0:
+            break
+        # The next round is the next window: its kernel may adapt to this round's draws.
+        chains.fit(draws[:, first:done])
     return Posterior(
-        samples=flat,
-        log_likelihoods=flat_ll,
+        samples=kept.transpose(1, 0, 2).reshape(-1, k),
+        log_likelihoods=draws_ll[:, keep].T.reshape(-1),
         chain_samples=kept,
-        map_weights=map_w,
-        map_log_likelihood=map_ll,
-        acceptance_rate=accepted_after_burn / after,
-        rhat=split_rhat(kept),
+        map_weights=chains.map_w,
+        map_log_likelihood=chains.map_ll,
+        acceptance_rate=accepted / (math.ceil(done / (WALK_EVERY if chains.fitted else 1)) * c),
+        rhat=rhat,
+        ess_bulk=diagnostics.ess_bulk,
+        ess_tail=diagnostics.ess_tail,
+        steps=config.burn_in + done,
+        converged=bool(converged),
     )

@@ -20,6 +20,8 @@ class Evidence:
         nevd_bound: Upper (1−δ) bound on the α-VaR of nEVD(π_MAP) over the posterior.
         piob_bound: Lower (1−δ) bound on the (1−α)-quantile of PIOB(π_MAP).
         map_policy_excluding: π_MAP of the posterior given all demos but those at these indices.
+        converged: The sampler met its R̂ and ESS targets; when False the bounds do not have
+            their stated confidence, and the bound rules do not stop on them.
     """
 
     domain: Domain
@@ -28,6 +30,7 @@ class Evidence:
     nevd_bound: float
     piob_bound: float
     map_policy_excluding: Callable[[frozenset[int]], Policy]
+    converged: bool = True
 
 
 @dataclass(frozen=True)

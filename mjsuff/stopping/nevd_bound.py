@@ -8,7 +8,8 @@ from mjsuff.stopping.base import Decision, Evidence, StoppingRule
 
 
 class NevdBoundRule(StoppingRule):
-    """Sufficient when the upper bound on the α-VaR of nEVD(π_MAP) is ≤ ``threshold``."""
+    """Sufficient when the upper bound on the α-VaR of nEVD(π_MAP) is ≤ ``threshold`` and the
+    posterior it was computed from converged (``Evidence.converged``)."""
 
     kind = "nevd"
 
@@ -20,4 +21,4 @@ class NevdBoundRule(StoppingRule):
 
     def decide(self, evidence: Evidence) -> Decision:
         bound = evidence.nevd_bound
-        return Decision(bound <= self.param, bound, evidence.map_policy)
+        return Decision(evidence.converged and bound <= self.param, bound, evidence.map_policy)

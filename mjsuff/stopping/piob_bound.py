@@ -8,7 +8,8 @@ from mjsuff.stopping.base import Decision, Evidence, StoppingRule
 
 
 class PiobBoundRule(StoppingRule):
-    """Sufficient when the lower bound on the (1−α)-quantile of PIOB(π_MAP) is ≥ ``threshold``."""
+    """Sufficient when the lower bound on the (1−α)-quantile of PIOB(π_MAP) is ≥ ``threshold``
+    and the posterior it was computed from converged (``Evidence.converged``)."""
 
     kind = "piob"
     measures_improvement = True
@@ -21,4 +22,4 @@ class PiobBoundRule(StoppingRule):
 
     def decide(self, evidence: Evidence) -> Decision:
         bound = evidence.piob_bound
-        return Decision(bound >= self.param, bound, evidence.map_policy)
+        return Decision(evidence.converged and bound >= self.param, bound, evidence.map_policy)
