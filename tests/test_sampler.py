@@ -36,7 +36,7 @@ def test_mcmc_matches_the_exact_grid_posterior(problem):
     np.testing.assert_allclose(mean, exact.mean, atol=0.04)
     np.testing.assert_allclose(cov, exact.covariance, atol=0.025)
     assert post.converged and post.rhat <= 1.01
-    assert 0.2 < post.acceptance_rate < 0.6
+    assert post.acceptance_rate > 0.5  # the multiple-try jumps move most of the time
 
 
 def test_map_is_the_best_point_visited(problem):

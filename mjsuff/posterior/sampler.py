@@ -1,32 +1,40 @@
 """Metropolis sampling of reward weights on the unit sphere (Bayesian IRL, paper §3.1.2, App. B).
 
-**Kernel.** Several chains run side by side, so every step evaluates the likelihood for a batch of
-proposals. Each chain walks in the ambient space ``R^k`` on ``v``, with target
-``π(v) ∝ L(v/‖v‖)·exp(−‖v‖²/2)``: since ``v/‖v‖`` of a standard normal ``v`` is uniform on the
-sphere and independent of ``‖v‖``, the direction ``w = v/‖v‖`` of a draw from ``π`` is a draw
-from the posterior under the uniform prior. In ``R^k`` a Gaussian proposal
-``v' = v + σ·(2.38/√k)·C^{1/2} z`` is symmetric, so the Metropolis ratio is
-``L(w')/L(w)·exp((‖v‖² − ‖v'‖²)/2)``; and ``C`` can follow the posterior's shape. That matters:
-with a few demos the posterior is a thin ridge (one weight pinned to ~0.02, another free over most
-of ``[−1, 1]``), along which isotropic steps sized for the thin direction need thousands of steps.
+**Target.** Several chains run side by side, so every step evaluates the likelihood for a batch.
+Each chain walks on ``v ∈ R^k`` with target ``π(v) ∝ L(v/‖v‖)·exp(−‖v‖²/2)``: since ``v/‖v‖`` of a
+standard normal ``v`` is uniform on the sphere and independent of ``‖v‖``, the direction
+``w = v/‖v‖`` of a draw from ``π`` is a draw from the posterior under the uniform prior. In
+``R^k`` proposals need no care for the sphere's geometry.
 
-**Warm-up** (``burn_in`` steps, discarded). Each chain adapts its scale ``σ`` with the paper's
-rule ``σ ← σ + σ/√(i+1)·(r − r*)`` (``r`` the acceptance rate since the last change of ``C``,
-``r*`` the target). ``C`` starts as the identity and is replaced, after each quarter of warm-up,
-by the covariance of every chain's ``v`` over the last quarter (pooled, so chains in different
-places widen it). Both are frozen after warm-up, so the kept samples come from a fixed kernel.
+**Warm-up** (``burn_in`` steps, discarded). The first quarter is a random walk
+``v' = v + σ z`` whose scale adapts with the paper's rule ``σ ← σ + σ/√(i+1)·(r − r*)`` (``r``
+the chain's acceptance rate so far, ``r*`` the target). After each quarter the independence
+proposal ``q`` is refitted to every chain's states of that quarter, and the later quarters jump.
 
-**Run until converged.** After warm-up the chains run in rounds whose length doubles. After each
-round the *window* is the second half of every post-warm-up step (the first round: all of them);
-the first half of a longer run is discarded as further burn-in. The kept draws are the window
-thinned evenly to ``num_samples / chains`` per chain (so the longer the run, the closer to
-independent they are). The run stops when the window's rank-normalized split-R̂ (every
-coordinate of ``w``) is at most ``rhat_target`` and the kept draws' bulk- and tail-ESS are at
-least ``min_ess`` (default 0.4 × ``num_samples``), or when the next round would pass
-``max_steps`` per chain: then the posterior is returned with ``converged = False``, for the
-caller to flag, never silently as converged.
+**Jumps.** ``q`` is a mixture: with probability ``1 − DEFENSIVE`` a Gaussian kernel density
+estimate on (at most ``MAX_CENTRES``) recent states, bandwidth ``INFLATE ×`` Scott's rule with
+their covariance; else the prior ``N(0, I)``, which keeps ``π/q`` bounded, so the chain is
+uniformly ergodic and never stalls in a tail the fit missed. A jump is an independent
+multiple-try Metropolis step (I-MTM, Martino & Read 2013) with ``TRIES`` candidates. Random-walk
+steps are too slow here: with a few demos the posterior is a thin curved ridge (one weight
+pinned to ±0.02, another free over most of ``[−1, 1]``), along which a random walk needs
+thousands of steps per independent draw; the jumps need one or two.
+
+**Run until converged.** After warm-up the chains run in rounds with a fixed kernel. The first
+round is ``max(FIRST_WINDOW, num_samples / chains × thin)`` steps; each later one is as long as
+all the rounds before it, so the *window* — the last round — is the second half of the run and
+the first half is discarded as further burn-in. ``q`` is refitted to each round's draws before
+the next. The kept draws are the window thinned evenly to ``num_samples / chains`` per chain (the
+longer the run, the closer to independent). The run stops when the window's rank-normalized
+split-R̂ (every coordinate of ``w``) is at most ``rhat_target`` and the kept draws' bulk- and
+tail-ESS are at least ``min_ess`` (default 0.4 × ``num_samples``), or when the next round would
+pass ``max_steps`` per chain: then the posterior is returned with ``converged = False``, for the
+caller to flag, never silently as converged. R̂ ≤ 1.01 needs about 100 effective draws per chain
+whatever the number of chains (``R̂² − 1 ≈ 1/n_eff,chain``), hence the first window's length.
+
 Assumption: a window with R̂ ≤ 1.01 whose chains started over-dispersed is from the stationary
-distribution (Vehtari et al. 2021); chains that all share one wrong mode cannot be detected.
+distribution (Vehtari et al. 2021); a mode that no chain, no kernel centre and no prior draw ever
+reaches cannot be detected.
 """
 
 from __future__ import annotations
@@ -61,8 +69,6 @@ MAX_CENTRES = 100
 TRIES = 4
 #: Least steps per chain in the first window after warm-up.
 FIRST_WINDOW = 200
-#: Once the proposals are fitted, one step in this many is a random-walk step, the rest jumps.
-WALK_EVERY = 4
 
 
 class SamplerConfig(BaseModel):
@@ -74,7 +80,7 @@ class SamplerConfig(BaseModel):
     num_samples: int = Field(500, ge=10, le=100_000, description="posterior samples kept over all chains")
     chains: int = Field(20, ge=2, le=1_000, description="independent chains run side by side")
     burn_in: int = Field(
-        100, ge=0, le=100_000, description="warm-up steps per chain, discarded (the step adapts here)"
+        60, ge=0, le=100_000, description="warm-up steps per chain, discarded (proposals adapt here)"
     )
     thin: int = Field(
         1, ge=1, le=1_000, description="least thinning of the kept draws (more when the run is longer)"
@@ -135,7 +141,7 @@ class Posterior:
         chain_samples: ``(chains, per_chain, k)`` the same samples by chain.
         map_weights: Highest-likelihood weights visited (the MAP under the uniform prior).
         map_log_likelihood: Its log-likelihood.
-        acceptance_rate: Mean acceptance after warm-up over all chains.
+        acceptance_rate: Share of jumps after warm-up that moved a chain.
         rhat: Largest rank-normalized split-R̂ of the final window (all its draws).
         ess_bulk: Smallest bulk-ESS of the kept draws over the coordinates.
         ess_tail: Smallest tail-ESS of the kept draws over the coordinates.
@@ -183,10 +189,10 @@ def _checked(ll: np.ndarray) -> np.ndarray:
 
 
 class _Chains:
-    """The chains' states in ``R^k``, their proposals, and the MAP visited.
+    """The chains' states in ``R^k``, the proposals, and the MAP visited.
 
     Attributes (per chain): ``v`` the state, ``ll`` its log-likelihood, ``lq`` its log density
-    under the independence proposal, ``sigma`` the random walk's scale.
+    under the independence proposal ``q``, ``sigma`` the random walk's scale.
     """
 
     def __init__(
@@ -203,44 +209,34 @@ class _Chains:
         self.ll = ll
         self.lq = np.zeros(c)
         self.sigma = np.full(c, step_size)
-        self.shape = np.eye(k)  # C^{1/2}, scaled by 2.38/√k
         self.fitted = False
         best = int(np.argmax(ll))
         self.map_w, self.map_ll = w[best].copy(), float(ll[best])
 
-    @property
-    def w(self) -> np.ndarray:
-        return normalize(self.v)
+    def move(self) -> np.ndarray:
+        """One step of every chain: a jump once ``q`` is fitted, else a random-walk step.
+        Returns which chains moved."""
+        return self.jump() if self.fitted else self.step()
 
     def step(self) -> np.ndarray:
-        """One random-walk Metropolis step of every chain; returns which were accepted.
-
-        The proposal ``v + σ·C^{1/2}z`` is symmetric, so the ratio is the target's alone.
-        """
+        """One random-walk Metropolis step ``v' = v + σz`` (symmetric: the ratio is ``π``'s)."""
         c, k = self.v.shape
-        proposal = self.v + self.sigma[:, None] * (self.rng.standard_normal((c, k)) @ self.shape.T)
+        proposal = self.v + self.sigma[:, None] * self.rng.standard_normal((c, k))
         ll_prop = _checked(self.log_likelihood(normalize(proposal)))
-        log_ratio = (
-            ll_prop
-            - self.ll
-            + 0.5 * (np.einsum("ck,ck->c", self.v, self.v) - np.einsum("ck,ck->c", proposal, proposal))
-        )
+        log_ratio = ll_prop - self.ll + 0.5 * (_sq(self.v) - _sq(proposal))
         accept = np.log(self.rng.random(c)) < log_ratio
         self.v = np.where(accept[:, None], proposal, self.v)
         self.ll = np.where(accept, ll_prop, self.ll)
-        if self.fitted:
-            self.lq = np.where(accept, self._log_q(proposal), self.lq)
         self._track_map()
         return accept
 
     def jump(self) -> np.ndarray:
-        """One independent multiple-try Metropolis step (I-MTM; Martino & Read 2013) from the
-        fitted proposal ``q`` (``fit``); returns which chains moved.
+        """One independent multiple-try Metropolis step (I-MTM) from ``q``.
 
         Each chain draws ``TRIES`` candidates ``y_i ~ q`` with importance weights
         ``ω(y) = π(y)/q(y)``, picks ``y_j`` with probability ``ω(y_j)/Σω`` and moves there with
-        probability ``min(1, Σ_i ω(y_i) / (Σ_i ω(y_i) − ω(y_j) + ω(v)))``. This leaves ``π``
-        invariant, and accepts far more often than one independence proposal.
+        probability ``min(1, Σ_i ω(y_i) / (Σ_i ω(y_i) − ω(y_j) + ω(v)))``, which leaves ``π``
+        invariant.
         """
         c, k = self.v.shape
         m = TRIES
@@ -250,12 +246,13 @@ class _Chains:
         y = np.where(fitted[:, None], centre + z @ self.spread.T, z)
         lq = self._log_q(y)
         ll = _checked(self.log_likelihood(normalize(y)))
-        log_w = (ll - 0.5 * np.einsum("ck,ck->c", y, y) - lq).reshape(c, m)
-        log_w_here = self.ll - 0.5 * np.einsum("ck,ck->c", self.v, self.v) - self.lq
+        log_w = (ll - 0.5 * _sq(y) - lq).reshape(c, m)
+        log_w_here = self.ll - 0.5 * _sq(self.v) - self.lq
         top = np.maximum(log_w.max(axis=1), log_w_here)
         weight = np.exp(log_w - top[:, None])
         total = weight.sum(axis=1)
-        pick = np.minimum((weight.cumsum(axis=1) < (self.rng.random(c) * total)[:, None]).sum(axis=1), m - 1)
+        below = weight.cumsum(axis=1) < (self.rng.random(c) * total)[:, None]
+        pick = np.minimum(below.sum(axis=1), m - 1)
         picked = weight[np.arange(c), pick]
         move = self.rng.random(c) * (total - picked + np.exp(log_w_here - top)) < total
         chosen = np.arange(c) * m + pick
@@ -271,47 +268,33 @@ class _Chains:
             self.map_w, self.map_ll = normalize(self.v[top]), float(self.ll[top])
 
     def _log_q(self, v: np.ndarray) -> np.ndarray:
-        """Log density (up to a constant) of the independence proposal at ``v`` ``(c, k)``."""
+        """Log density (up to a constant) of ``q`` at each row of ``v``."""
         zv = v @ self.whiten.T
-        d2 = (
-            np.einsum("ck,ck->c", zv, zv)[:, None]
-            + self.centres_norm2[None]
-            - 2.0 * zv @ self.centres_white.T
-        )  # (c, J) squared whitened distances
+        d2 = _sq(zv)[:, None] + self.centres_norm2[None] - 2.0 * zv @ self.centres_white.T
         top = -0.5 * d2.min(axis=1)
-        kde = top + np.log(np.exp(-0.5 * d2 - top[:, None]).sum(axis=1))
-        fit = kde - self.log_norm
-        prior = -0.5 * np.einsum("ck,ck->c", v, v)
-        return np.logaddexp(np.log1p(-DEFENSIVE) + fit, np.log(DEFENSIVE) + prior)
+        kde = top + np.log(np.exp(-0.5 * d2 - top[:, None]).sum(axis=1)) - self.log_norm
+        return np.logaddexp(np.log1p(-DEFENSIVE) + kde, np.log(DEFENSIVE) - 0.5 * _sq(v))
 
     def fit(self, recent: np.ndarray) -> None:
-        """Fit both proposals to ``recent`` states ``(chains, steps, k)``: the random walk's
-        shape ``C`` (their covariance) and the independence proposal, a Gaussian kernel density
-        estimate on them (bandwidth ``INFLATE ×`` Scott's rule)."""
+        """Fit ``q`` to ``recent`` states ``(chains, steps, k)`` (module docstring)."""
         k = recent.shape[-1]
         flat = recent.reshape(-1, k)
         if len(flat) > MAX_CENTRES:
             flat = flat[np.linspace(0, len(flat) - 1, MAX_CENTRES).astype(int)]
-        cov = np.cov(flat.T) + 1e-6 * np.eye(k)
-        root = np.linalg.cholesky(cov)
-        self.shape = 2.38 / math.sqrt(k) * root
+        root = np.linalg.cholesky(np.cov(flat.T) + 1e-6 * np.eye(k))
         self.spread = INFLATE * len(flat) ** (-1.0 / (k + 4)) * root
         self.whiten = np.linalg.inv(self.spread)
         self.centres = flat.copy()
         self.centres_white = flat @ self.whiten.T
-        self.centres_norm2 = np.einsum("jk,jk->j", self.centres_white, self.centres_white)
+        self.centres_norm2 = _sq(self.centres_white)
         self.log_norm = math.log(len(flat)) + float(np.log(np.diag(self.spread)).sum())
         self.fitted = True
         self.lq = self._log_q(self.v)
 
-    def move(self, t: int) -> np.ndarray | None:
-        """Step ``t`` of the kernel: once fitted, a random walk on every ``WALK_EVERY``-th step
-        and independence jumps between; returns the random walk's acceptances (None after a
-        jump)."""
-        if self.fitted and t % WALK_EVERY:
-            self.jump()
-            return None
-        return self.step()
+
+def _sq(x: np.ndarray) -> np.ndarray:
+    """Squared norm of each row."""
+    return np.einsum("ck,ck->c", x, x)
 
 
 def _initial_states(
@@ -335,31 +318,29 @@ def _initial_states(
 
 
 def _warm_up(chains: _Chains, config: SamplerConfig) -> None:
-    """``burn_in`` adaptive steps (module docstring); then chains stranded far below the best
-    move to a good one."""
+    """``burn_in`` steps (module docstring); then chains stranded far below the best move to a
+    good one."""
     c, k = chains.v.shape
     quarter = max(config.burn_in // 4, 1)
     recent = np.empty((c, quarter, k))
-    accepted, since = np.zeros(c), 0
+    accepted = np.zeros(c)
     for t in range(config.burn_in):
-        walked = chains.move(t)
+        walked = not chains.fitted
+        moved = chains.move()
         recent[:, t % quarter] = chains.v
-        if walked is not None:
-            accepted += walked
-            since += 1
-            rate = accepted / since
-            sigma = chains.sigma + chains.sigma / np.sqrt(since) * (rate - config.target_acceptance)
+        if walked:
+            accepted += moved
+            rate = accepted / (t + 1)
+            sigma = chains.sigma + chains.sigma / np.sqrt(t + 1) * (rate - config.target_acceptance)
             chains.sigma = np.clip(sigma, 1e-4, 10.0)
-        if (t + 1) % quarter == 0 and t + 1 < config.burn_in and quarter * c > 2 * k:
+        if (t + 1) % quarter == 0 and quarter * c > 2 * k:
             chains.fit(recent)
-            chains.sigma = np.ones(c)
-            accepted, since = np.zeros(c), 0
     if config.burn_in:
         stranded = chains.ll < chains.ll.max() - config.stranded_gap
         if stranded.any():
             donors = chains.rng.choice(np.flatnonzero(~stranded), size=int(stranded.sum()))
             chains.v[stranded], chains.ll[stranded] = chains.v[donors], chains.ll[donors]
-            chains.sigma[stranded] = chains.sigma[donors]
+            chains.lq[stranded] = chains.lq[donors]
 
 
 def _thinned(window: int, keep: int) -> np.ndarray:
@@ -385,10 +366,9 @@ def sample_posterior(
             warm-up whatever the diagnostics say (for callers that only need the MAP).
 
     At the end of warm-up, a chain whose log-likelihood lies more than ``stranded_gap`` below the
-    best chain's is moved to the state of a randomly chosen well-placed chain. This is a
-    heuristic against chains stuck in a far tail (1/chains of the samples would come from there
-    and inflate the upper quantiles the bounds read); it assumes a state that much less likely is
-    not in a broad mode of comparable total mass. Set ``stranded_gap`` very large to disable it.
+    best chain's is moved to the state of a randomly chosen well-placed chain (a head start out of
+    a far tail; it happens in the discarded warm-up, so the kept draws' distribution does not
+    depend on it). Set ``stranded_gap`` very large to disable it.
     """
     c, k, per_chain = config.chains, num_features, config.per_chain
     chains = _Chains(
@@ -409,8 +389,7 @@ def sample_posterior(
             draws = np.concatenate([draws, np.empty((c, capacity - draws.shape[1], k))], axis=1)
             draws_ll = np.concatenate([draws_ll, np.empty((c, capacity - draws_ll.shape[1]))], axis=1)
         for t in range(done, done + round_length):
-            walked = chains.move(t)
-            accepted += 0 if walked is None else int(walked.sum())
+            accepted += int(chains.move().sum())
             draws[:, t], draws_ll[:, t] = chains.v, chains.ll
         done += round_length
         first = 0 if done == round_length else done // 2
@@ -434,7 +413,7 @@ def sample_posterior(
         chain_samples=kept,
         map_weights=chains.map_w,
         map_log_likelihood=chains.map_ll,
-        acceptance_rate=accepted / (math.ceil(done / (WALK_EVERY if chains.fitted else 1)) * c),
+        acceptance_rate=accepted / (done * c),
         rhat=rhat,
         ess_bulk=diagnostics.ess_bulk,
         ess_tail=diagnostics.ess_tail,
