@@ -194,7 +194,7 @@ class OptimalPolicyCache:
             q = self._backup(weights, values)
             slack = _OPTIMALITY_TOL * (1.0 + np.abs(values))
             pending = np.flatnonzero((q.max(axis=2) > values + slack).any(axis=1))
-            start = greedy_actions(q[pending])
+            start = greedy_actions(q[pending]) if pending.size else None
         else:
             values, q = np.empty((n, s)), np.empty((n, s, a))
             pending = np.arange(n)

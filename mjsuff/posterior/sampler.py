@@ -68,7 +68,7 @@ MAX_CENTRES = 100
 #: Candidates per chain in one multiple-try jump.
 TRIES = 4
 #: Least steps per chain in the first window after warm-up.
-FIRST_WINDOW = 200
+FIRST_WINDOW = 150
 
 
 class SamplerConfig(BaseModel):
