@@ -1,4 +1,6 @@
-"""Paper Figure 4, Tables 2 and 3 on Driving (10 seeded worlds, every state once)."""
+"""Paper Figure 4, Tables 2 and 3 on Driving (10 seeded worlds, every state once), on the
+package's original variants (tests.paper.ORIGINAL); test_paper_driving_paper_world.py checks the
+shipped ones."""
 
 from tests.paper import paper_tests
 
