@@ -1,8 +1,9 @@
 """The bound keeps its confidence: coverage of the posterior's α-quantile over sampler seeds.
 
 A small, seeded version of ``benchmarks/coverage.py``: one 5×5 gridworld (the shipped scenario's
-paper world and non-pessimal PIOB baseline, β, α, δ and sampler), 3 and 10 demos, 30 sampler seeds each, against an
-importance-sampling reference posterior (200,000 prior draws; its effective size is checked).
+paper world and non-pessimal PIOB baseline, β, α, δ and sampler), 3 and 10 demos, 30 sampler
+seeds each, against an importance-sampling reference posterior (200,000 prior draws; its
+effective size is checked).
 With v0.1's sampler (20 chains × 75 burn-in steps × 25 kept draws, the independent-draw index)
 the same cells and seeds covered 0.57 and 0.73 (nEVD) and 0.63 and 0.43 (PIOB): this test fails
 there.
