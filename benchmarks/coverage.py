@@ -134,7 +134,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     scenario = load_scenario(ROOT / "scenarios" / "gridworld.toml", args.set)
-    suff, config = scenario.sufficiency, scenario.posterior
+    suff, config = scenario.sufficiency, scenario.sampler()
     seeds = [int(s) for s in np.random.default_rng(args.sampler_seed).integers(2**31, size=args.seeds)]
     cells = []
     started = time.perf_counter()
@@ -170,7 +170,7 @@ def main() -> None:
                     **run_cell(
                         f"lava_reacher d{demos}",
                         tuple(case),
-                        reacher.posterior,
+                        reacher.sampler(),
                         rseeds,
                         reacher.sufficiency,
                         progress,

@@ -38,7 +38,7 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     t["candidates"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     post = sample_posterior(lambda w: domain.log_likelihood(w, demos, beta), domain.num_features,
-                            scenario.posterior, rng)
+                            scenario.sampler(), rng)
     t["sampling"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     policy = domain.plan(post.map_weights)

@@ -160,7 +160,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     sampler = result.sampler
     if sampler.get("posteriors"):
         capped = sampler["unconverged_posteriors"]
-        cfg = scenario.posterior
+        cfg = scenario.sampler()
         note = (f"{capped:,} hit the step cap ({cfg.max_steps}) first: flagged (converged = false "
                 "in steps.parquet) and never used to stop" if capped else "all converged")
         out.print(f"MCMC: {sampler['posteriors']:,} posteriors (R̂ ≤ {cfg.rhat_target:g}, ESS ≥ "

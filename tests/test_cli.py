@@ -18,7 +18,7 @@ from mjsuff.experiment.runner import RECORDING, run_scenario
 from mjsuff.recording import Recording
 from tests.conftest import small_scenario
 
-SMALL_SETS = ["replicates=2", "demos.max_demos=3", "posterior.num_samples=60",
+SMALL_SETS = ["replicates=2", "demos.max_demos=3", "posterior.num_samples=120",
               "posterior.chains=6", "posterior.burn_in=20", "rules.patience=[1]",
               "rules.validation_intervals=[2]"]
 GRIDWORLD = str(Path(__file__).parent.parent / "scenarios" / "gridworld.toml")
@@ -48,7 +48,7 @@ def test_run_writes_parseable_outputs(tmp_path):
                     "tpr", "fpr", "policy_optimality", "replicates"):
             assert key in e
     config = (tmp_path / "r" / "config.toml").read_text()
-    assert "num_samples = 60" in config and "rows = 5" in config
+    assert "num_samples = 120" in config and "rows = 5" in config
     # Written through temporary files (created 0600), yet with the usual mode under the umask.
     for name in ("config.toml", "steps.parquet", "summary.json", "run.json"):
         assert (tmp_path / "r" / name).stat().st_mode & 0o777 == FILE_MODE
@@ -207,3 +207,22 @@ def test_workers_exit_when_the_run_is_killed(tmp_path):
     proc.communicate(timeout=60)
     # Workers notice their parent is gone within a second and exit; they do not run on.
     assert wait_for_group_exit(proc.pid, 15) == []
+
+
+def test_unconverged_posteriors_are_flagged_and_never_stop(tmp_path, capsys):
+    # An R̂ target no sampler reaches and a cap of one short round: every posterior hits the cap.
+    out = tmp_path / "r"
+    assert run_cli(out, "--set", "posterior.rhat_target=1.000001",
+                   "--set", "posterior.max_steps=60") == 0
+    steps = pd.read_parquet(out / "steps.parquet")
+    assert not steps["converged"].any()
+    assert (steps["mcmc_steps"] == 60).all()
+    bound_rules = steps[steps["rule"].isin(["nevd", "piob"])]
+    assert not bound_rules["decision"].any()  # a bound without its confidence never stops a run
+    run = json.loads((out / "run.json").read_text())
+    assert run["sampler"]["posteriors"] == 2 * 3
+    assert run["sampler"]["unconverged_posteriors"] == 2 * 3
+    main(["run", GRIDWORLD, "--out", str(tmp_path / "printed"), "--backend", "serial",
+          "--set", "posterior.rhat_target=1.000001", "--set", "posterior.max_steps=60",
+          *[x for s in SMALL_SETS for x in ("--set", s)]])
+    assert "6 hit the step cap (60) first" in capsys.readouterr().out

@@ -39,6 +39,11 @@ def test_report_writes_figures_linked_from_markdown(sweep_run, capsys):
         assert (out / link).read_bytes()[:8] == PNG and (out / link).stat().st_size > 10_000
     assert "Kruskal-Wallis" in text and "Dunn" in text and "noise_fraction = 0.4" in text
     assert "H1, decision quality" in text and "F1 (notebook, FN = 1)" in text
+    # MCMC diagnostics per demo step, one table per cell with a row per step (4 demos).
+    assert text.count("| demos | mean R̂ | max R̂ |") == 2
+    rows = re.findall(r"^\| ([1-4]) \| (1\.\d{3}) \| (1\.\d{3}) \|", text, flags=re.M)
+    assert [r[0] for r in rows] == ["1", "2", "3", "4"] * 2
+    assert all(float(mean) <= float(worst) for _, mean, worst in rows)
     assert "report.md" in capsys.readouterr().out
 
 

@@ -18,7 +18,7 @@ from mjsuff.experiment.runner import run_scenario
 from tests.conftest import small_scenario
 
 GRIDWORLD = str(Path(__file__).parent.parent / "scenarios" / "gridworld.toml")
-SETS = ["demos.max_demos=3", "posterior.num_samples=60", "posterior.chains=6",
+SETS = ["demos.max_demos=3", "posterior.num_samples=120", "posterior.chains=6",
         "posterior.burn_in=20", "rules.patience=[1]", "rules.validation_intervals=[2]"]
 
 

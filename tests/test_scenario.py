@@ -73,7 +73,9 @@ def test_overrides_are_parsed_as_toml_values(tmp_path):
     (["rules.nevd_thresholds=[]", "rules.piob_thresholds=[]", "rules.patience=[]",
       "rules.validation_intervals=[]"], "rules: at least one rule is needed", False),
     (["rules.nevd_thresholds=[]"], "rules.nevd_thresholds: the baselines are scored", False),
-    (["posterior.num_samples=20"], "posterior.num_samples: at least 59 samples", False),
+    (["posterior.num_samples=20"], "posterior.num_samples: at least 70 samples", False),
+    (["posterior.num_samples=40", "sufficiency.quantile_method=\"binomial\""],
+     "posterior.num_samples: at least 59 samples", False),
     (["posterior.num_samples=100", "posterior.min_ess=200"], "posterior.min_ess: the kept draws' "
      "effective size cannot exceed num_samples (100)", False),
     (["posterior.num_samples=60", "posterior.chains=80"], "posterior.num_samples: must be a multiple "

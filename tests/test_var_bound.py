@@ -4,6 +4,7 @@ from scipy.stats import binom, norm
 
 from mjsuff.bounds.var_bound import (
     bound_is_valid,
+    least_effective_size,
     lower_var_bound,
     upper_var_bound,
     var_bound_index,
@@ -107,3 +108,12 @@ def test_effective_size_restores_coverage_for_dependent_draws():
         corrected.append(upper_var_bound(flat, 0.95, 0.05, ess=ess) >= q)
     assert np.mean(plain) <= 0.88
     assert np.mean(corrected) >= 0.92
+
+
+def test_least_effective_size_is_the_smallest_valid_one():
+    for alpha in (0.9, 0.95, 0.99):
+        m = least_effective_size(500, alpha, 0.05)
+        assert bound_is_valid(500, alpha, 0.05, ess=m)
+        assert not bound_is_valid(500, alpha, 0.05, ess=m - 1)
+    assert least_effective_size(60, 0.95, 0.05) is None  # too few draws for the normal index
+    assert least_effective_size(59, 0.95, 0.05, "binomial") == 59  # the maximum: 0.95^59 < 0.05

@@ -72,6 +72,19 @@ def bound_is_valid(
     return _raw_index(n, alpha, delta, method, ess) <= n - 1
 
 
+def least_effective_size(n: int, alpha: float, delta: float,
+                         method: QuantileMethod = "normal") -> int | None:
+    """The smallest effective size for which ``n`` draws keep the confidence (``bound_is_valid``),
+    or None when even independent draws are too few."""
+    if not bound_is_valid(n, alpha, delta, method, n):
+        return None
+    lo, hi = 1, n  # bound_is_valid is monotone in the effective size
+    while lo < hi:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if bound_is_valid(n, alpha, delta, method, mid) else (mid + 1, hi)
+    return lo
+
+
 def upper_var_bound(
     values: np.ndarray,
     alpha: float,

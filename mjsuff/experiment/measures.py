@@ -134,6 +134,24 @@ def paper_measures(
     }
 
 
+def sampler_diagnostics(rows: pd.DataFrame) -> dict[str, Any]:
+    """The posteriors behind ``rows`` (one row per replicate and step): mean and worst R̂, mean
+    and smallest ESS (the smaller of bulk and tail), the share that converged, and the mean
+    effective size the nEVD bound's index used. Empty for runs without these columns."""
+    if "converged" not in rows:
+        return {}
+    ess = rows[["ess_bulk", "ess_tail"]].min(axis=1)
+    return {
+        "mean_rhat": float(rows["rhat"].mean()),
+        "max_rhat": float(rows["rhat"].max()),
+        "mean_ess": float(ess.mean()),
+        "min_ess": float(ess.min()),
+        "converged": float(rows["converged"].astype(bool).mean()),
+        "mean_bound_ess": float(rows["bound_ess"].mean()),
+        "mean_mcmc_steps": float(rows["mcmc_steps"].mean()),
+    }
+
+
 def summarize(steps: pd.DataFrame, nevd_thresholds: list[float]) -> dict[str, Any]:
     """``summary.json`` content: one entry per rule × parameter (× ε for baselines), plus the
     per-step nEVD bound curve (Figure 2)."""
@@ -158,5 +176,6 @@ def summarize(steps: pd.DataFrame, nevd_thresholds: list[float]) -> dict[str, An
                 "mean_bound": float(g["bound"].mean()),
                 "mean_true_nevd": float(g["true_nevd"].mean()),
                 "bound_accuracy": float((g["bound"] >= g["true_nevd"]).mean()),
+                **sampler_diagnostics(g),
             })
     return {"entries": entries, "nevd_bound_by_step": curve}

@@ -141,8 +141,8 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
     mu_rand = domain.random_start_feature_expectations()
     mu_base = domain.baseline_start_feature_expectations()
 
-    map_only = scenario.posterior.model_copy(
-        update={"num_samples": max(10, scenario.posterior.chains)})
+    sampler = scenario.sampler()
+    map_only = sampler.model_copy(update={"num_samples": sampler.chains * -(-10 // sampler.chains)})
     demos: list[Demo] = []
     posteriors: dict[frozenset[int], tuple[Posterior, Policy]] = {}
 
@@ -153,7 +153,7 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
             used = [d for j, d in enumerate(demos) if j not in key]
             rng = np.random.default_rng(seed_sequence(scenario, replicate, "mcmc", n, *sorted(key)))
             # Held-out posteriors only serve their MAP: keep one sample per chain, one round.
-            settings = scenario.posterior if not key else map_only
+            settings = sampler if not key else map_only
             post = sample_posterior(
                 lambda w: domain.log_likelihood(w, used, cfg.beta),
                 domain.num_features, settings, rng, initial=previous.get(key),

@@ -10,7 +10,6 @@ from __future__ import annotations
 import copy
 import itertools
 import json
-import math
 import re
 import tomllib
 from dataclasses import dataclass
@@ -20,7 +19,7 @@ from typing import Annotated, Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from mjsuff.bounds.var_bound import QuantileMethod, bound_is_valid
+from mjsuff.bounds.var_bound import QuantileMethod, least_effective_size
 from mjsuff.domains import REGISTRY, get_domain
 from mjsuff.experts.expert import ExpertSettings
 from mjsuff.posterior.sampler import SamplerConfig
@@ -96,19 +95,18 @@ class Scenario(_Strict):
         if (r.patience or r.validation_intervals) and not r.nevd_thresholds:
             raise ValueError("rules.nevd_thresholds: the baselines are scored at the nEVD "
                              "thresholds, so at least one is needed")
-        a, d = self.sufficiency.alpha, self.sufficiency.delta
-        needed = math.ceil(math.log(d) / math.log(a))
-        if self.posterior.num_samples < needed:
+        a, d, q = self.sufficiency.alpha, self.sufficiency.delta, self.sufficiency.quantile_method
+        n = self.posterior.num_samples
+        least = least_effective_size(n, a, d, q)
+        if least is None:
+            needed = next(m for m in range(n, 100_000) if least_effective_size(m, a, d, q))
             raise ValueError(f"posterior.num_samples: at least {needed} samples are needed for a "
-                             f"{1 - d:g}-confidence bound on the {a:g}-VaR "
-                             f"(got {self.posterior.num_samples})")
-        q = self.sufficiency.quantile_method
-        if not bound_is_valid(self.posterior.num_samples, a, d, q, self.posterior.ess_target):
-            least = next(m for m in range(1, self.posterior.num_samples + 1)
-                         if bound_is_valid(self.posterior.num_samples, a, d, q, m))
+                             f"{1 - d:g}-confidence bound on the {a:g}-VaR ({q} order statistic; "
+                             f"got {n})")
+        if self.posterior.min_ess is not None and self.posterior.min_ess < least:
             raise ValueError(f"posterior.min_ess: the {1 - d:g}-confidence bound on the {a:g}-VaR "
-                             f"from {self.posterior.num_samples} samples needs an effective size "
-                             f"of at least {least} (got {self.posterior.ess_target:g})")
+                             f"from {n} samples needs an effective size of at least {least} "
+                             f"(got {self.posterior.min_ess:g})")
         return self
 
     def cells(self, source: str = "scenario") -> list[SweepCell]:
@@ -136,6 +134,16 @@ class Scenario(_Strict):
                 raise ScenarioError(str(exc)) from None
             cells.append(SweepCell(index, labels, cell))
         return cells
+
+    def sampler(self) -> SamplerConfig:
+        """The posterior settings with ``min_ess`` resolved: as set, else 0.4 × ``num_samples`` or
+        the effective size the α-VaR bound needs, whichever is larger."""
+        if self.posterior.min_ess is not None:
+            return self.posterior
+        s = self.sufficiency
+        least = least_effective_size(self.posterior.num_samples, s.alpha, s.delta, s.quantile_method)
+        return self.posterior.model_copy(
+            update={"min_ess": float(max(self.posterior.ess_target, least or 0))})
 
     def domain_params(self) -> BaseModel:
         return get_domain(self.domain.name).params.model_validate(self.domain.params)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from mjsuff.experiment.measures import measure_group
+from mjsuff.experiment.measures import measure_group, sampler_diagnostics
 from mjsuff.experiment.results import atomic_write_text
 from mjsuff.report.figures import (
     NAMES,
@@ -100,6 +100,22 @@ def paper_table(cell: ReportCell) -> str:
     return "\n".join(lines) + "\n"
 
 
+def sampler_table(cell: ReportCell) -> str:
+    """MCMC diagnostics per demo step (the posterior each step's bounds came from)."""
+    steps = cell.steps
+    if "converged" not in steps:
+        return "(no sampler diagnostics: a run from before mjsuff recorded them)\n"
+    lines = ["| demos | mean R̂ | max R̂ | mean ESS | min ESS | converged | bound ESS | MCMC steps |",
+             "|---|---|---|---|---|---|---|---|"]
+    per_step = steps.drop_duplicates(["replicate", "step"])
+    for step, g in per_step.groupby("step", sort=True):
+        d = sampler_diagnostics(g)
+        lines.append(f"| {step} | {d['mean_rhat']:.3f} | {d['max_rhat']:.3f} | {d['mean_ess']:.0f} | "
+                     f"{d['min_ess']:.0f} | {d['converged']:.2f} | {d['mean_bound_ess']:.0f} | "
+                     f"{d['mean_mcmc_steps']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
 def comparison_text(comparison: RuleComparison | None, what: str) -> str:
     """Kruskal-Wallis, the medians and Dunn's adjusted p-values, as markdown."""
     if comparison is None:
@@ -142,7 +158,11 @@ def write_report(directories: list[Path], out: Path) -> Path:
                   "Tests between rules: one observation per replicate and rule (a rule's "
                   "parameters averaged within the replicate).", "",
                   comparison_text(compare_rules(quality_obs, "correct"), H1),
-                  comparison_text(compare_rules(demo_obs, "demos"), H2)]
+                  comparison_text(compare_rules(demo_obs, "demos"), H2),
+                  "The posteriors (R̂: rank-normalized split-R̂ of the final window; ESS: the "
+                  "smaller of bulk and tail of the kept draws; bound ESS: the effective size the "
+                  "nEVD bound's index used; a posterior that did not converge is never used to "
+                  "stop):", "", sampler_table(cell)]
     parts += ["## nEVD bound and true nEVD vs. demos", "", f"![bound vs demos]({bound_fig.name})", ""]
     noise_fig = noise_ablation(cells, out / "noise_ablation.png")
     if noise_fig is not None:
