@@ -1,10 +1,12 @@
-"""Benchmark: one sufficiency check on the 5x5 gridworld (issue #2).
+"""Benchmark: one sufficiency check on the 5x5 gridworld (issues #2, #15).
 
-One check = MCMC posterior from 10 demos (500 samples), π_MAP, nEVD for every sample, the α-VaR
-bound. mjsuff's engine is timed on fresh instances (cold policy cache: the honest cost of a first
-check) and inside the experiment loop's warm state; a naive reference, written the way the
-paper's published code works (one proposal at a time, value iteration in plain Python loops per
-proposal and per sample), runs in the same process on the same instance, and the ratio is printed.
+One check = MCMC posterior from 10 demos (500 samples, the shipped scenario's sampler: until it
+has converged), π_MAP, nEVD for every sample, the α-VaR bound (index for the draws' effective
+size); the worlds are the shipped scenario's. mjsuff's engine is timed on fresh instances (cold
+policy cache: the honest cost of a first check) and inside the experiment loop's warm state; a
+naive reference, written the way the paper's published code works (one proposal at a time, value
+iteration in plain Python loops per proposal and per sample), runs in the same process on the
+same instance, and the ratio is printed.
 
     python benchmarks/sufficiency_check.py [--naive-instances 1] [--instances 5]
 """
@@ -15,6 +17,7 @@ import argparse
 import math
 import statistics
 import time
+from pathlib import Path
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -22,32 +25,39 @@ from threadpoolctl import threadpool_limits
 from mjsuff.bounds import normalized_evd, policy_values, upper_var_bound
 from mjsuff.domains import get_domain
 from mjsuff.domains.tabular import TabularDomain
-from mjsuff.posterior import SamplerConfig, sample_posterior
+from mjsuff.experiment.scenario import load_scenario
+from mjsuff.posterior import sample_posterior
 
 NUM_DEMOS = 10
 BETA = 10.0
 ALPHA, DELTA = 0.95, 0.05
+#: The shipped scenario: its worlds and its sampler (500 samples, 20 chains, until R̂ ≤ 1.01 and
+#: ESS ≥ 200).
+SCENARIO = load_scenario(Path(__file__).resolve().parent.parent / "scenarios" / "gridworld.toml")
+SETTINGS = SCENARIO.sampler()
 
 
 def make_case(seed: int) -> tuple[TabularDomain, list]:
     rng = np.random.default_rng(seed)
-    domain = get_domain("gridworld").make(None, rng)
+    domain = get_domain("gridworld").make(SCENARIO.domain_params(), rng)
     starts = rng.permutation(domain.pool.size)[:NUM_DEMOS]
     demos = [domain.demonstrate(int(s), rng) for s in starts]
     return domain, demos
 
 
 def fast_check(domain: TabularDomain, demos: list, seed: int) -> float:
+    """One check as ``mjsuff run`` makes it: the sampler until converged (the shipped settings),
+    then the bound with the index for the draws' effective size."""
     post = sample_posterior(lambda w: domain.log_likelihood(w, demos, BETA),
-                            domain.num_features, SamplerConfig(num_samples=500),
-                            np.random.default_rng(seed))
+                            domain.num_features, SETTINGS, np.random.default_rng(seed))
     w = post.samples
     policy = domain.plan(post.map_weights)
     sw = domain.start_weights
     v_opt = domain.optimal_start_values(w) @ sw
     v_robot = policy_values(w, domain.start_feature_expectations(policy), sw)
     v_rand = policy_values(w, domain.random_start_feature_expectations(), sw)
-    return upper_var_bound(normalized_evd(v_opt, v_robot, v_rand), ALPHA, DELTA)
+    nevd = normalized_evd(v_opt, v_robot, v_rand)
+    return upper_var_bound(nevd, ALPHA, DELTA, ess=post.effective_size(nevd, ALPHA))
 
 
 # -- naive reference: the paper's code structure, plain Python loops ------------------------------
