@@ -74,6 +74,20 @@ def test_bad_scenario_exits_2_with_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize(("setting", "expected"), [
+    ("posterior.rhat_target=1.0", "posterior.rhat_target: input should be greater than 1"),
+    ("posterior.max_steps=70", "posterior.max_steps: at least burn_in + num_samples / chains"),
+    ("posterior.min_ess=20", "posterior.min_ess: the 0.95-confidence bound on the 0.95-VaR"),
+    ("posterior.num_samples=490", "posterior.num_samples: must be a multiple of chains (20)"),
+])
+def test_bad_convergence_settings_exit_2_with_one_line(tmp_path, capsys, setting, expected):
+    out = tmp_path / "o"
+    assert main(["run", GRIDWORLD, "--out", str(out), "--set", setting]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and expected in err and f"--set {setting.split('=')[0]}" in err
+    assert not out.exists()
+
+
 def test_console_script_exit_code_for_missing_file(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "mjsuff.cli", "run", str(tmp_path / "x.toml")],
                           capture_output=True, text=True, timeout=60)
