@@ -1,6 +1,6 @@
 """Benchmark: one sufficiency check on each MuJoCo scene (issue #5).
 
-One check = the posterior from 10 demos (MCMC, 500 samples), π_MAP (planned from every
+One check = the posterior from 10 demos (MCMC, 500 samples, until converged), π_MAP (planned from every
 evaluation start), ``V*`` of every sample from the library with refinement, nEVD and the α-VaR
 bound, with 16 evaluation starts and the scenario file's planning budgets. Printed: the total and
 the share spent building the demos' candidate sets (simulating the perturbed demos), sampling,
@@ -50,7 +50,9 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     sw, w = domain.start_weights, post.samples
     nevd = normalized_evd(v_opt, policy_values(w, mu, sw),
                           policy_values(w, domain.random_start_feature_expectations(), sw))
-    t["bound"] = upper_var_bound(nevd, suff.alpha, suff.delta)
+    t["bound"] = upper_var_bound(nevd, suff.alpha, suff.delta, suff.quantile_method,
+                                 post.effective_size(nevd, suff.alpha))
+    t["steps"] = post.steps
     return t
 
 
@@ -77,10 +79,11 @@ def main() -> None:
         print(f"  instance {build:.1f} s (random trajectories and seed plans); "
               f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)")
         for label, t in (("first check", first), ("warm check (11th demo)", second)):
-            parts = {k: v for k, v in t.items() if k != "bound"}
+            parts = {k: v for k, v in t.items() if k not in ("bound", "steps")}
             total = sum(parts.values())
             shares = ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in parts.items())
-            print(f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}")
+            print(f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}; "
+                  f"{t['steps']} sampler steps per chain")
 
 
 if __name__ == "__main__":
