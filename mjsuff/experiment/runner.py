@@ -6,7 +6,7 @@ loses only the replicates that were running; ``resume=True`` continues it withou
 duplicating any finished replicate.
 
 Recordings: each replicate's recording comes back from the backend with its rows and is written,
-after them, to ``recordings/replicate-NNNNN.rrd`` of its cell; when the run ends, however it ends,
+before them, to ``recordings/replicate-NNNNN.rrd`` of its cell; when the run ends, however it ends,
 those parts are merged into the cell's ``recording.rrd`` (``rerun rrd merge``), the one file to
 open.
 """
@@ -302,10 +302,13 @@ def run_scenario(
     try:
         for task, result in backend.run(tasks, on_step if progress is not None else None):
             cell_dir = _cell_directory(directory, cells[task.key[0]], sweep)
-            write_replicate(cell_dir, task.replicate, result.rows)
-            if result.recording is not None:  # after the rows: a part always has its rows
+            # The recording part first: a replicate whose rows are on disk always has its part
+            # (a kill in between leaves a part without rows, which the merge drops and a resume
+            # writes again when it redoes the replicate).
+            if result.recording is not None:
                 atomic_write_bytes(cell_dir / RECORDINGS / f"replicate-{task.replicate:05d}.rrd",
                                    result.recording)
+            write_replicate(cell_dir, task.replicate, result.rows)
             done_keys.add(task.key)
             fractions.pop(task.key, None)
             finished += 1
