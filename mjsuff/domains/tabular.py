@@ -192,8 +192,8 @@ class OptimalPolicyCache:
         if self._keys:
             values = self._cached_values(weights)
             q = self._backup(weights, values)
-            slack = _OPTIMALITY_TOL * (1.0 + np.abs(values))
-            pending = np.flatnonzero((q.max(axis=2) > values + slack).any(axis=1))
+            limit = values + _OPTIMALITY_TOL * (1.0 + np.abs(values))
+            pending = np.flatnonzero((q > limit[:, :, None]).any(axis=(1, 2)))
             start = greedy_actions(q[pending]) if pending.size else None
         else:
             values, q = np.empty((n, s)), np.empty((n, s, a))

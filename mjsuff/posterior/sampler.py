@@ -399,12 +399,13 @@ def sample_posterior(
             rhat, diagnostics, converged = math.nan, ChainDiagnostics(math.nan, math.nan, math.nan), False
             break
         rhat = rank_rhat(normalize(draws[:, first:done]))
-        diagnostics = chain_diagnostics(kept)
-        converged = rhat <= config.rhat_target and diagnostics.ess >= config.ess_target
         # Double the post-warm-up run (each round as long as everything before it), up to the cap.
         round_length = min(done, config.max_steps - config.burn_in - done)
-        if converged or round_length <= 0:
-            break
+        if rhat <= config.rhat_target or round_length <= 0:  # the ESS only for a window that can pass
+            diagnostics = chain_diagnostics(kept)
+            converged = rhat <= config.rhat_target and diagnostics.ess >= config.ess_target
+            if converged or round_length <= 0:
+                break
         # The next round is the next window: its kernel may adapt to this round's draws.
         chains.fit(draws[:, first:done])
     return Posterior(
