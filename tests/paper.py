@@ -88,7 +88,9 @@ def check_table_3_paper_world(passive: pd.DataFrame, active: pd.DataFrame) -> No
 
 def paper_world_tests(domain: str) -> tuple:
     """Module-scoped fixtures and tests of Figure 4 and Tables 2-3 for ``domain`` as shipped (the
-    paper's world variant and non-pessimal baseline); bound as ``paper_tests`` are."""
+    paper's world variant and non-pessimal baseline). A test module binds them to module-level
+    names (pytest collects the ``test_`` ones), so each domain's runs stay in one module (and one
+    xdist worker)."""
 
     @pytest.fixture(scope="module")
     def passive(tmp_path_factory):
