@@ -72,8 +72,7 @@ def bound_is_valid(
     return _raw_index(n, alpha, delta, method, ess) <= n - 1
 
 
-def least_effective_size(n: int, alpha: float, delta: float,
-                         method: QuantileMethod = "normal") -> int | None:
+def least_effective_size(n: int, alpha: float, delta: float, method: QuantileMethod = "normal") -> int | None:
     """The smallest effective size for which ``n`` draws keep the confidence (``bound_is_valid``),
     or None when even independent draws are too few."""
     if not bound_is_valid(n, alpha, delta, method, n):
