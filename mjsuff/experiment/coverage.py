@@ -25,8 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjsuff.bounds.regret import normalized_evd, percent_improvement, policy_values
-from mjsuff.bounds.var_bound import QuantileMethod, lower_var_bound, upper_var_bound
+from mjsuff.bounds.var_bound import QuantileMethod
 from mjsuff.domain import Domain, Policy
+from mjsuff.experiment.replicate import posterior_bounds
 from mjsuff.posterior.exact import grid_posterior
 from mjsuff.posterior.sampler import LogLikelihood, SamplerConfig, sample_posterior
 from mjsuff.sphere import random_unit_vectors
@@ -123,10 +124,7 @@ def check(
     start = time.perf_counter()
     post = sample_posterior(log_likelihood, num_features, config, rng)
     nevd, piob = statistics(post.samples)
-    nevd_ess = post.effective_size(nevd, alpha)
-    nevd_bound = upper_var_bound(nevd, alpha, delta, method, nevd_ess)
-    finite = np.isfinite(piob)
-    piob_bound = lower_var_bound(piob[finite], alpha, delta, method, post.effective_size(piob, 1.0 - alpha))
+    nevd_bound, piob_bound, nevd_ess = posterior_bounds(post, nevd, piob, alpha, delta, method)
     return CheckResult(
         nevd_bound,
         piob_bound,

@@ -14,7 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from mjsuff.bounds.regret import normalized_evd, percent_improvement, policy_values
-from mjsuff.bounds.var_bound import lower_var_bound, upper_var_bound
+from mjsuff.bounds.var_bound import QuantileMethod, lower_var_bound, upper_var_bound
 from mjsuff.domain import Demo, Domain, Policy
 from mjsuff.domains import get_domain
 from mjsuff.experiment.scenario import Scenario
@@ -68,6 +68,20 @@ def seed_sequence(scenario: Scenario, replicate: int, stream: str, *key: int) ->
     """The seed of one randomness stream (instance, demos, mcmc, selection, calibration) of a
     replicate (or of a calibration instance)."""
     return np.random.SeedSequence(scenario.seed, spawn_key=(replicate, _STREAMS[stream], *key))
+
+
+def posterior_bounds(post: Posterior, nevd: np.ndarray, piob: np.ndarray, alpha: float,
+                     delta: float, method: QuantileMethod = "normal") -> tuple[float, float, float]:
+    """(nEVD upper bound, PIOB lower bound, nEVD's effective size) of per-sample values, each
+    bound's index chosen for its values' quantile ESS (``Posterior.effective_size``). PIOB's
+    non-finite values (``|V_base| = 0``) are left out; with none finite its bound is −inf."""
+    nevd_ess = post.effective_size(nevd, alpha)
+    nevd_bound = upper_var_bound(nevd, alpha, delta, method, nevd_ess)
+    finite = piob[np.isfinite(piob)]
+    piob_bound = (lower_var_bound(finite, alpha, delta, method,
+                                  post.effective_size(piob, 1.0 - alpha))
+                  if finite.size else -math.inf)
+    return nevd_bound, piob_bound, nevd_ess
 
 
 class _Truth:
@@ -183,12 +197,8 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         v_robot = policy_values(w, mu_robot, sw)
         nevd = normalized_evd(v_opt, v_robot, policy_values(w, mu_rand, sw))
         piob = percent_improvement(v_robot, policy_values(w, mu_base, sw))
-        nevd_ess = post.effective_size(nevd, suff.alpha)
-        nevd_bound = upper_var_bound(nevd, suff.alpha, suff.delta, suff.quantile_method, nevd_ess)
-        piob_finite = piob[np.isfinite(piob)]
-        piob_bound = (lower_var_bound(piob_finite, suff.alpha, suff.delta, suff.quantile_method,
-                                      post.effective_size(piob, 1.0 - suff.alpha))
-                      if piob_finite.size else -math.inf)
+        nevd_bound, piob_bound, nevd_ess = posterior_bounds(post, nevd, piob, suff.alpha,
+                                                            suff.delta, suff.quantile_method)
         evidence = Evidence(domain, list(demos), map_policy, nevd_bound, piob_bound,
                             lambda ex: posterior_excluding(ex)[1], post.converged)
         first_row = len(rows)

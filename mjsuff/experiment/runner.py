@@ -28,7 +28,7 @@ import pandas as pd
 
 from mjsuff import __version__
 from mjsuff.experiment.backends import Backend, ReplicateTask, SerialBackend
-from mjsuff.experiment.measures import summarize
+from mjsuff.experiment.measures import sampler_diagnostics, summarize
 from mjsuff.experiment.replicate import DemoSource
 from mjsuff.experiment.results import (
     OutputError,
@@ -93,12 +93,11 @@ def sampler_totals(steps: pd.DataFrame) -> dict[str, Any]:
     if steps.empty or "converged" not in steps:
         return {"posteriors": 0, "unconverged_posteriors": 0}
     per_step = steps.drop_duplicates(["replicate", "step"])
+    d = sampler_diagnostics(per_step)
     return {
         "posteriors": len(per_step),
         "unconverged_posteriors": int((~per_step["converged"].astype(bool)).sum()),
-        "max_rhat": float(per_step["rhat"].max()),
-        "min_ess": float(per_step[["ess_bulk", "ess_tail"]].min(axis=1).min()),
-        "mean_mcmc_steps": float(per_step["mcmc_steps"].mean()),
+        **{k: d[k] for k in ("max_rhat", "min_ess", "mean_mcmc_steps")},
     }
 
 
