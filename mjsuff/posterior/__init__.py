@@ -5,6 +5,7 @@ from mjsuff.posterior.calibration import BetaFit, CalibrationError, fit_beta
 from mjsuff.posterior.diagnostics import (
     ChainDiagnostics,
     chain_diagnostics,
+    effective_sizes,
     quantile_ess,
     rank_rhat,
 )
@@ -20,6 +21,7 @@ __all__ = [
     "Posterior",
     "SamplerConfig",
     "chain_diagnostics",
+    "effective_sizes",
     "fit_beta",
     "grid_posterior",
     "quantile_ess",

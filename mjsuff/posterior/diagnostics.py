@@ -63,11 +63,15 @@ def rank_rhat(chains: np.ndarray) -> float:
 
 def chain_diagnostics(chains: np.ndarray) -> ChainDiagnostics:
     """R̂ and the bulk- and tail-ESS of ``(chains, draws, k)`` samples, worst coordinate each."""
+    return ChainDiagnostics(rank_rhat(chains), *effective_sizes(chains))
+
+
+def effective_sizes(chains: np.ndarray) -> tuple[float, float]:
+    """Smallest bulk-ESS and smallest tail-ESS over coordinates of ``(chains, draws, k)`` samples."""
     x = _by_coordinate(chains)
-    return ChainDiagnostics(
-        rhat=_worst(array_stats.rhat(x, method="rank"), largest=True),
-        ess_bulk=_worst(array_stats.ess(x, method="bulk"), largest=False),
-        ess_tail=_worst(array_stats.ess(x, method="tail", prob=(0.05, 0.95)), largest=False),
+    return (
+        _worst(array_stats.ess(x, method="bulk"), largest=False),
+        _worst(array_stats.ess(x, method="tail", prob=(0.05, 0.95)), largest=False),
     )
 
 
