@@ -18,7 +18,10 @@ uniformly ergodic and never stalls in a tail the fit missed. A jump is an indepe
 multiple-try Metropolis step (I-MTM, Martino & Read 2013) with ``TRIES`` candidates. Random-walk
 steps are too slow here: with a few demos the posterior is a thin curved ridge (one weight
 pinned to ±0.02, another free over most of ``[−1, 1]``), along which a random walk needs
-thousands of steps per independent draw; the jumps need one or two.
+thousands of steps per independent draw; the jumps need one or two. Neither a jump's
+candidates nor its pick depend on the chain's state, so a block of steps' candidates (at most
+``BLOCK_ROWS``) is drawn and its likelihoods computed in one batch; only the accept test runs
+step by step.
 
 **Run until converged.** After warm-up the chains run in rounds with a fixed kernel. The first
 round is ``max(FIRST_WINDOW, num_samples / chains × thin)`` steps; each later one is as long as
@@ -47,8 +50,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from mjsuff.posterior.diagnostics import (
-    ChainDiagnostics,
-    chain_diagnostics,
+    effective_sizes,
     quantile_ess,
     rank_rhat,
 )
@@ -69,6 +71,8 @@ MAX_CENTRES = 100
 TRIES = 4
 #: Least steps per chain in the first window after warm-up.
 FIRST_WINDOW = 150
+#: Most candidates evaluated in one likelihood call (bounds the memory of a batch of jumps).
+BLOCK_ROWS = 4096
 
 
 class SamplerConfig(BaseModel):
@@ -139,7 +143,8 @@ class Posterior:
             ``i // chains`` of chain ``i % chains``).
         log_likelihoods: ``(num_samples,)`` log-likelihood of each sample.
         chain_samples: ``(chains, per_chain, k)`` the same samples by chain.
-        map_weights: Highest-likelihood weights visited (the MAP under the uniform prior).
+        map_weights: Highest-likelihood weights evaluated, chain state or candidate (the MAP
+            under the uniform prior).
         map_log_likelihood: Its log-likelihood.
         acceptance_rate: Share of jumps after warm-up that moved a chain.
         rhat: Largest rank-normalized split-R̂ of the final window (all its draws).
@@ -213,10 +218,27 @@ class _Chains:
         best = int(np.argmax(ll))
         self.map_w, self.map_ll = w[best].copy(), float(ll[best])
 
-    def move(self) -> np.ndarray:
-        """One step of every chain: a jump once ``q`` is fitted, else a random-walk step.
-        Returns which chains moved."""
-        return self.jump() if self.fitted else self.step()
+    def advance(self, steps: int) -> tuple[np.ndarray, np.ndarray, int]:
+        """``steps`` steps of every chain with the current kernel: jumps once ``q`` is fitted,
+        else random-walk steps at the current scales (no adaptation).
+
+        Returns the chains' states ``(chains, steps, k)``, their log-likelihoods
+        ``(chains, steps)`` and how many chain-steps moved.
+        """
+        if not self.fitted:
+            states, lls, moved = [], [], 0
+            for _ in range(steps):
+                moved += int(self.step().sum())
+                states.append(self.v)
+                lls.append(self.ll)
+            return np.stack(states, axis=1), np.stack(lls, axis=1), moved
+        block = max(1, BLOCK_ROWS // (len(self.v) * TRIES))
+        parts = [self.jumps(min(block, steps - t)) for t in range(0, steps, block)]
+        return (
+            np.concatenate([p[0] for p in parts], axis=1),
+            np.concatenate([p[1] for p in parts], axis=1),
+            sum(p[2] for p in parts),
+        )
 
     def step(self) -> np.ndarray:
         """One random-walk Metropolis step ``v' = v + σz`` (symmetric: the ratio is ``π``'s)."""
@@ -227,45 +249,65 @@ class _Chains:
         accept = np.log(self.rng.random(c)) < log_ratio
         self.v = np.where(accept[:, None], proposal, self.v)
         self.ll = np.where(accept, ll_prop, self.ll)
-        self._track_map()
+        self._track_map(self.v, self.ll)
         return accept
 
-    def jump(self) -> np.ndarray:
-        """One independent multiple-try Metropolis step (I-MTM) from ``q``.
+    def jumps(self, steps: int) -> tuple[np.ndarray, np.ndarray, int]:
+        """``steps`` independent multiple-try Metropolis steps (I-MTM) of every chain from ``q``.
 
-        Each chain draws ``TRIES`` candidates ``y_i ~ q`` with importance weights
+        At each step each chain draws ``TRIES`` candidates ``y_i ~ q`` with importance weights
         ``ω(y) = π(y)/q(y)``, picks ``y_j`` with probability ``ω(y_j)/Σω`` and moves there with
         probability ``min(1, Σ_i ω(y_i) / (Σ_i ω(y_i) − ω(y_j) + ω(v)))``, which leaves ``π``
-        invariant.
+        invariant. The candidates and the pick do not depend on the chain's state, so every
+        step's candidates are drawn and evaluated in one batch; only the accept test runs step
+        by step. Returns as :meth:`advance`.
         """
         c, k = self.v.shape
-        m = TRIES
-        z = self.rng.standard_normal((c * m, k))
-        centre = self.centres[self.rng.integers(len(self.centres), size=c * m)]
-        fitted = self.rng.random(c * m) >= DEFENSIVE
+        m, rng = TRIES, self.rng
+        n = steps * c * m
+        z = rng.standard_normal((n, k))
+        centre = self.centres[rng.integers(len(self.centres), size=n)]
+        fitted = rng.random(n) >= DEFENSIVE
         y = np.where(fitted[:, None], centre + z @ self.spread.T, z)
         lq = self._log_q(y)
         ll = _checked(self.log_likelihood(normalize(y)))
-        log_w = (ll - 0.5 * _sq(y) - lq).reshape(c, m)
-        log_w_here = self.ll - 0.5 * _sq(self.v) - self.lq
-        top = np.maximum(log_w.max(axis=1), log_w_here)
-        weight = np.exp(log_w - top[:, None])
-        total = weight.sum(axis=1)
-        below = weight.cumsum(axis=1) < (self.rng.random(c) * total)[:, None]
-        pick = np.minimum(below.sum(axis=1), m - 1)
-        picked = weight[np.arange(c), pick]
-        move = self.rng.random(c) * (total - picked + np.exp(log_w_here - top)) < total
-        chosen = np.arange(c) * m + pick
-        self.v = np.where(move[:, None], y[chosen], self.v)
-        self.ll = np.where(move, ll[chosen], self.ll)
-        self.lq = np.where(move, lq[chosen], self.lq)
-        self._track_map()
-        return move
+        self._track_map(y, ll)
+        log_w = (ll - 0.5 * _sq(y) - lq).reshape(steps, c, m)
+        top = log_w.max(axis=2)
+        top = np.where(np.isfinite(top), top, 0.0)  # every candidate at log-likelihood −inf
+        weight = np.exp(log_w - top[..., None])
+        total = weight.sum(axis=2)
+        below = weight.cumsum(axis=2) < (rng.random((steps, c)) * total)[..., None]
+        pick = np.minimum(below.sum(axis=2), m - 1)
+        at = np.arange(steps)[:, None], np.arange(c)[None, :]
+        rest = total - weight[(*at, pick)]
+        chosen = (at[0] * c + at[1]) * m + pick  # the picked candidate's row in y
+        chosen_log_w = log_w[(*at, pick)]
+        u = rng.random((steps, c))
+        # Rows of (current states, candidates): a chain's state is a row index.
+        here = np.arange(c)
+        here_log_w = self.ll - 0.5 * _sq(self.v) - self.lq
+        states = np.empty((steps, c), dtype=np.intp)
+        moved = 0
+        for t in range(steps):
+            # ω(v) relative to the candidates' largest weight; huge means "stay" (no overflow).
+            ratio = np.exp(np.minimum(here_log_w - top[t], 700.0))
+            move = u[t] * (rest[t] + ratio) < total[t]
+            here = np.where(move, c + chosen[t], here)
+            here_log_w = np.where(move, chosen_log_w[t], here_log_w)
+            states[t] = here
+            moved += int(move.sum())
+        rows_v = np.concatenate([self.v, y])
+        rows_ll = np.concatenate([self.ll, ll])
+        rows_lq = np.concatenate([self.lq, lq])
+        self.v, self.ll, self.lq = rows_v[here], rows_ll[here], rows_lq[here]
+        return rows_v[states.T], rows_ll[states.T], moved
 
-    def _track_map(self) -> None:
-        top = int(np.argmax(self.ll))
-        if self.ll[top] > self.map_ll:
-            self.map_w, self.map_ll = normalize(self.v[top]), float(self.ll[top])
+    def _track_map(self, v: np.ndarray, ll: np.ndarray) -> None:
+        """Keep the highest-likelihood point of ``v`` (rows) if it beats the best so far."""
+        top = int(np.argmax(ll))
+        if ll[top] > self.map_ll:
+            self.map_w, self.map_ll = normalize(v[top]), float(ll[top])
 
     def _log_q(self, v: np.ndarray) -> np.ndarray:
         """Log density (up to a constant) of ``q`` at each row of ``v``."""
@@ -322,18 +364,20 @@ def _warm_up(chains: _Chains, config: SamplerConfig) -> None:
     good one."""
     c, k = chains.v.shape
     quarter = max(config.burn_in // 4, 1)
-    recent = np.empty((c, quarter, k))
     accepted = np.zeros(c)
-    for t in range(config.burn_in):
-        walked = not chains.fitted
-        moved = chains.move()
-        recent[:, t % quarter] = chains.v
-        if walked:
-            accepted += moved
-            rate = accepted / (t + 1)
-            sigma = chains.sigma + chains.sigma / np.sqrt(t + 1) * (rate - config.target_acceptance)
-            chains.sigma = np.clip(sigma, 1e-4, 10.0)
-        if (t + 1) % quarter == 0 and quarter * c > 2 * k:
+    for start in range(0, config.burn_in, quarter):
+        length = min(quarter, config.burn_in - start)
+        if chains.fitted:
+            recent = chains.advance(length)[0]
+        else:  # the adaptive random walk, step by step
+            recent = np.empty((c, length, k))
+            for t in range(start, start + length):
+                accepted += chains.step()
+                rate = accepted / (t + 1)
+                sigma = chains.sigma + chains.sigma / np.sqrt(t + 1) * (rate - config.target_acceptance)
+                chains.sigma = np.clip(sigma, 1e-4, 10.0)
+                recent[:, t - start] = chains.v
+        if length == quarter and quarter * c > 2 * k:
             chains.fit(recent)
     if config.burn_in:
         stranded = chains.ll < chains.ll.max() - config.stranded_gap
@@ -388,22 +432,22 @@ def sample_posterior(
             capacity = done + round_length
             draws = np.concatenate([draws, np.empty((c, capacity - draws.shape[1], k))], axis=1)
             draws_ll = np.concatenate([draws_ll, np.empty((c, capacity - draws_ll.shape[1]))], axis=1)
-        for t in range(done, done + round_length):
-            accepted += int(chains.move().sum())
-            draws[:, t], draws_ll[:, t] = chains.v, chains.ll
+        states, states_ll, moved = chains.advance(round_length)
+        draws[:, done : done + round_length], draws_ll[:, done : done + round_length] = states, states_ll
+        accepted += moved
         done += round_length
         first = 0 if done == round_length else done // 2
         keep = first + _thinned(done - first, per_chain)
         kept = normalize(draws[:, keep])
         if not until_converged:
-            rhat, diagnostics, converged = math.nan, ChainDiagnostics(math.nan, math.nan, math.nan), False
+            rhat, (ess_bulk, ess_tail), converged = math.nan, (math.nan, math.nan), False
             break
         rhat = rank_rhat(normalize(draws[:, first:done]))
         # Double the post-warm-up run (each round as long as everything before it), up to the cap.
         round_length = min(done, config.max_steps - config.burn_in - done)
         if rhat <= config.rhat_target or round_length <= 0:  # the ESS only for a window that can pass
-            diagnostics = chain_diagnostics(kept)
-            converged = rhat <= config.rhat_target and diagnostics.ess >= config.ess_target
+            ess_bulk, ess_tail = effective_sizes(kept)
+            converged = rhat <= config.rhat_target and min(ess_bulk, ess_tail) >= config.ess_target
             if converged or round_length <= 0:
                 break
         # The next round is the next window: its kernel may adapt to this round's draws.
@@ -416,8 +460,8 @@ def sample_posterior(
         map_log_likelihood=chains.map_ll,
         acceptance_rate=accepted / (done * c),
         rhat=rhat,
-        ess_bulk=diagnostics.ess_bulk,
-        ess_tail=diagnostics.ess_tail,
+        ess_bulk=ess_bulk,
+        ess_tail=ess_tail,
         steps=config.burn_in + done,
         converged=bool(converged),
     )
