@@ -25,13 +25,30 @@ from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
 from mjsuff.experiment.backends import BackendError, make_backend
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import CellResult, RunResult, run_scenario
-from mjsuff.experiment.scenario import Scenario, ScenarioError, load_scenario
+from mjsuff.experiment.scenario import Scenario, ScenarioError, load_scenario, shipped_scenarios
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
+#: Width of stdout off a terminal: wide enough that no table is cut and no line is wrapped.
+LOG_WIDTH = 10_000
+
+
+class _Stdout:
+    """stdout through rich: on a terminal, fitted to the window; elsewhere (``> log``, a pipe) at
+    full width, since rich would fit every table to 80 columns and cut its cells with "…"."""
+
+    def __init__(self) -> None:
+        self._terminal = Console()
+        self._log = Console(width=LOG_WIDTH)
+
+    def print(self, *objects: Any, **kwargs: Any) -> None:
+        console = self._terminal if self._terminal.is_terminal else self._log
+        console.print(*objects, **kwargs)
+
+
 err = Console(stderr=True)
-out = Console()
+out = _Stdout()
 
 
 def _fmt(x: Any, digits: int = 2) -> str:
@@ -337,6 +354,26 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_scenarios(args: argparse.Namespace) -> int:
+    import json
+
+    shipped = shipped_scenarios()
+    if args.json:
+        print(json.dumps([{"name": s.name, "domain": s.domain, "description": s.description,
+                           "path": str(s.path)} for s in shipped], indent=2))
+        return 0
+    table = Table(title="Shipped scenarios: mjsuff run NAME")
+    for col in ("name", "domain", "description"):
+        table.add_column(col)
+    for s in shipped:
+        table.add_row(s.name, s.domain, s.description)
+    out.print(table)
+    folder = shipped[0].path.parent if shipped else "(none)"
+    out.print(f"files: {folder} (a file of the same name in the working directory comes first)",
+              highlight=False)
+    return 0
+
+
 def has_display() -> bool:
     """Whether a native viewer window can open here."""
     if sys.platform in ("darwin", "win32"):
@@ -378,6 +415,9 @@ def _rerun_version() -> str:
     return version("rerun-sdk")
 
 
+SCENARIO_HELP = "scenario TOML file or a shipped scenario's name (mjsuff scenarios)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="mjsuff",
@@ -389,9 +429,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run a scenario: demos one at a time, every stopping rule "
                                      "decides, ground truth scores it",
-                         description="Run a scenario file and write steps.parquet, "
+                         description="Run a scenario file (or a shipped scenario by name: "
+                                     "mjsuff scenarios lists them) and write steps.parquet, "
                                      "summary.json and config.toml to the output directory.")
-    run.add_argument("scenario", help="scenario TOML file, e.g. scenarios/gridworld.toml")
+    run.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. scenarios/gridworld.toml or "
+                                      "lava_reacher")
     run.add_argument("--out", help="output directory (default: runs/NAME-TIMESTAMP)")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--replicates", type=int, help="override the number of replicates")
@@ -425,7 +467,7 @@ def build_parser() -> argparse.ArgumentParser:
                            description="Generate a demo set (.npz, true weights apart in "
                                        ".truth.json) for one replicate's scene instance, with "
                                        "the seed streams mjsuff run uses.")
-    demos.add_argument("scenario", help="scenario TOML file, e.g. scenarios/lava_reacher.toml")
+    demos.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. lava_reacher")
     demos.add_argument("--count", type=int, help="number of demos (default: demos.max_demos)")
     demos.add_argument("--out", help="output .npz (default: demos/NAME-seedS-rR.npz)")
     demos.add_argument("--seed", type=int, help="override the scenario's seed")
@@ -443,7 +485,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "collect the demos a passive run would get, and fit β by "
                                      "maximum likelihood under the known w*, per instance and "
                                      "pooled. Set demos.beta in the scenario to the pooled value.")
-    cal.add_argument("scenario", help="scenario TOML file, e.g. scenarios/lander.toml")
+    cal.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. lander")
     cal.add_argument("--instances", type=int, default=4, help="calibration instances (default 4)")
     cal.add_argument("--seed", type=int, help="override the scenario's seed")
     cal.add_argument("--set", action="append", metavar="KEY=VALUE",
@@ -472,6 +514,15 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("directories", nargs="+", metavar="DIR", help="run or sweep directories")
     report.add_argument("--out", help="where to write (default: DIR/report of the first DIR)")
     report.set_defaults(func=cmd_report)
+
+    scen = sub.add_parser("scenarios", help="list the shipped scenarios (mjsuff run NAME runs one)",
+                          description="List the scenario files shipped with mjsuff: name, "
+                                      "domain and the first sentence of the file's comment. "
+                                      "Commands that take a scenario take these names when no "
+                                      "file of that name exists.")
+    scen.add_argument("--json", action="store_true",
+                      help="print a JSON list (name, domain, description, path) instead of a table")
+    scen.set_defaults(func=cmd_scenarios)
 
     hoeff = sub.add_parser("hoeffding", help="print the paper's Table 1 (Hoeffding-based "
                                              "demo counts)")

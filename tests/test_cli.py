@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from mjsuff.cli import main
+from mjsuff.cli import _fmt, main
 from mjsuff.experiment import backends
 from mjsuff.experiment.results import FILE_MODE, OutputError
 from mjsuff.experiment.runner import RECORDING, run_scenario
@@ -240,3 +240,85 @@ def test_unconverged_posteriors_are_flagged_and_never_stop(tmp_path, capsys):
           "--set", "posterior.rhat_target=1.000001", "--set", "posterior.max_steps=60",
           *[x for s in SMALL_SETS for x in ("--set", s)]])
     assert "6 hit the step cap (60) first" in capsys.readouterr().out
+
+
+SHIPPED = sorted(p.stem for p in (Path(__file__).parent.parent / "scenarios").glob("*.toml"))
+SMALL_ARGS = ["--quiet", "--backend", "serial", *[x for s in SMALL_SETS for x in ("--set", s)]]
+
+
+def test_run_takes_a_shipped_scenario_by_name_unless_a_file_has_that_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "gridworld", "--out", "shipped", *SMALL_ARGS]) == 0
+    assert 'name = "gridworld"' in (tmp_path / "shipped" / "config.toml").read_text()
+    # A file of that name in the working directory comes first.
+    Path("gridworld").write_text('name = "mine"\n[domain]\nname = "gridworld"\n')
+    assert main(["run", "gridworld", "--out", "local", *SMALL_ARGS]) == 0
+    assert 'name = "mine"' in (tmp_path / "local" / "config.toml").read_text()
+
+
+@pytest.mark.parametrize("command", ["run", "demos", "calibrate"])
+def test_unknown_scenario_name_is_one_line_listing_the_shipped_ones(tmp_path, monkeypatch, capsys,
+                                                                    command):
+    monkeypatch.chdir(tmp_path)
+    assert main([command, "nonesuch"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("error: nonesuch: ")
+    assert f"(shipped: {', '.join(SHIPPED)})" in err
+    assert list(tmp_path.iterdir()) == []  # nothing written (no runs/, no demos/)
+
+
+def test_scenarios_lists_the_shipped_ones(capsys):
+    assert main(["scenarios", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert [s["name"] for s in listed] == SHIPPED
+    by_name = {s["name"]: s for s in listed}
+    assert by_name["lava_reacher"]["domain"] == "lava_reacher"
+    assert by_name["gridworld_sweep"]["domain"] == "gridworld"
+    assert by_name["lander"]["description"].startswith("Lander: a planar MuJoCo craft")
+    assert all(Path(s["path"]).is_file() and s["description"] for s in listed)
+    assert main(["scenarios"]) == 0
+    table = capsys.readouterr().out
+    for s in listed:
+        assert s["name"] in table and s["description"] in table
+
+
+@pytest.mark.parametrize("command", [["scenarios"], ["hoeffding", "--gamma", "0.999"],
+                                     ["calibrate", "gridworld", "--instances", "1"]])
+def test_tables_keep_whole_columns_off_a_terminal(monkeypatch, capsys, command):
+    # Off a terminal rich would fit the table to COLUMNS (80 by default) and cut cells with "…".
+    monkeypatch.setenv("COLUMNS", "30")
+    assert main(command) == 0
+    printed = capsys.readouterr().out
+    assert "┏" in printed and "…" not in printed
+    assert max(len(line) for line in printed.splitlines()) > 30
+
+
+def table_rows(text: str) -> list[list[str]]:
+    """The cells of every body row of the rich tables in ``text``."""
+    return [[cell.strip() for cell in line.strip().strip("│").split("│")]
+            for line in text.splitlines() if line.startswith("│")]
+
+
+def test_run_summary_is_whole_in_a_log(tmp_path):
+    # stdout a pipe, no terminal anywhere: what `mjsuff run ... > log` prints.
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    proc = subprocess.run([sys.executable, "-m", "mjsuff.cli", "run", GRIDWORLD, "--out",
+                           str(tmp_path / "r"), "--backend", "serial", "--no-record",
+                           *[x for s in SMALL_SETS for x in ("--set", s)]],
+                          capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL,
+                          env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert "…" not in proc.stdout
+    header = next(line for line in proc.stdout.splitlines() if line.startswith("┃"))
+    assert [c.strip() for c in header.strip("┃").split("┃")] == [
+        "rule", "param", "ε", "F1", "accuracy", "bound err", "demos", "± sem", "states", "TPR",
+        "FPR", "optimality"]
+    entries = json.loads((tmp_path / "r" / "summary.json").read_text())["entries"]
+    expected = [[e["rule"], f"{e['param']:g}", f"{e['epsilon']:g}", _fmt(e["f1"]),
+                 _fmt(e["accuracy"]), _fmt(e["bound_error"], 3), _fmt(e["demos_needed"], 1),
+                 _fmt(e["demos_needed_sem"], 1), _fmt(e["fraction_of_states"]), _fmt(e["tpr"]),
+                 _fmt(e["fpr"]), _fmt(e["policy_optimality"])]
+                for e in entries if e["rule"] in ("nevd", "piob") or e["epsilon"] == 0.3]
+    assert table_rows(proc.stdout) == expected
+    # Nor is a line of text wrapped: the results line names the run directory whole.
+    assert f"mjsuff report {tmp_path / 'r'} for figures" in proc.stdout

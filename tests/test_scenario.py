@@ -5,7 +5,12 @@ from pathlib import Path
 
 import pytest
 
-from mjsuff.experiment.scenario import ScenarioError, load_scenario
+from mjsuff.experiment.scenario import (
+    ScenarioError,
+    load_scenario,
+    resolve_scenario,
+    shipped_scenarios,
+)
 
 SCENARIOS = sorted(Path(__file__).parent.parent.joinpath("scenarios").glob("*.toml"))
 GOOD = """
@@ -100,3 +105,35 @@ def test_bad_overrides_are_clear(tmp_path, sets, expected, attributed):
     # Field errors also name the override they came from (cross-field checks name their key).
     if attributed:
         assert f"(--set {sets[0].split('=')[0]})" in message
+
+
+def test_shipped_scenarios_are_the_scenario_files():
+    shipped = shipped_scenarios()
+    assert [s.path.resolve() for s in shipped] == [p.resolve() for p in SCENARIOS]
+    for s in shipped:
+        assert s.name == s.path.stem == load_scenario(s.path).name
+        assert s.domain == load_scenario(s.path).domain.name
+        assert s.description.endswith(".") and "\n" not in s.description
+    # The first sentence of the leading comment, even when it runs over two comment lines.
+    sweep = next(s for s in shipped if s.name == "gridworld_sweep")
+    assert sweep.description.endswith("a growing share of poor demos, passive and active.")
+
+
+def test_bare_names_resolve_to_shipped_scenarios_unless_a_file_has_that_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    lander = next(p for p in SCENARIOS if p.stem == "lander")
+    assert resolve_scenario("lander").resolve() == lander.resolve()
+    assert load_scenario("lander").domain.name == "lander"
+    Path("lander").write_text(GOOD)
+    assert resolve_scenario("lander") == Path("lander")
+    assert load_scenario("lander").name == "x"
+    # Paths are paths: no lookup for a directory part or a .toml suffix.
+    for path in ("lava_reacher.toml", "sub/lava_reacher"):
+        assert resolve_scenario(path) == Path(path)
+        with pytest.raises(ScenarioError, match=f"^{path}: file not found$"):
+            load_scenario(path)
+    with pytest.raises(ScenarioError) as unknown:
+        load_scenario("nonesuch")
+    names = ", ".join(p.stem for p in SCENARIOS)
+    assert str(unknown.value) == (f"nonesuch: no such scenario file, nor a shipped scenario "
+                                  f"(shipped: {names})")

@@ -8,7 +8,7 @@ from mjsuff.domains import REGISTRY
 from mjsuff.scenes.lander import REST_HEIGHT, Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams, fingertip_xy
 from mjsuff.scenes.planner import PlannerConfig, SamplingPlanner
-from mjsuff.scenes.scene import load_model
+from mjsuff.scenes.scene import MODELS, load_model, model_path
 
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
           "lander": (Lander, LanderParams)}
@@ -36,6 +36,15 @@ def test_model_compiles_in_radians(name):
     limited = [j for j in hinge if model.jnt_limited[j]]
     assert all(model.jnt_range[j, 1] > 2.0 for j in limited)
     assert model.nu >= 2
+
+
+def test_model_path_names_the_shipped_file_or_the_shipped_models():
+    assert model_path("lander.xml") == MODELS / "lander.xml" and model_path("lander.xml").is_file()
+    with pytest.raises(FileNotFoundError) as missing:
+        model_path("nonesuch.xml")
+    message = str(missing.value)
+    assert message.startswith("nonesuch.xml: no such MJCF model in ")
+    assert "(models: lander.xml, lava_reacher.xml)" in message and "pip install" not in message
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))

@@ -13,21 +13,32 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mjsuff.package_data import data_dir
 from mjsuff.scenes.planner_config import PlannerConfig
 from mjsuff.scenes.simulate import Rollouts, Simulator
 from mjsuff.scenes.spline import ControlSpline
 
-#: The repository's ``models/`` folder, where the MJCF files live.
-MODELS = Path(__file__).resolve().parents[2] / "models"
+#: The folder of the MJCF files: the package ``mjsuff.models`` (the repository's ``models/``).
+MODELS = data_dir("mjsuff.models")
+
+
+def model_path(name: str) -> Path:
+    """The file of the shipped MJCF model ``NAME`` (e.g. ``lava_reacher.xml``); a one-line
+    ``FileNotFoundError`` naming the shipped models if there is none."""
+    path = MODELS / name
+    if not path.is_file():
+        shipped = sorted(p.name for p in MODELS.glob("*.xml"))
+        if not shipped:
+            raise FileNotFoundError(f"{MODELS}: mjsuff's MJCF models are missing (a broken "
+                                    "install: reinstall mjsuff)")
+        raise FileNotFoundError(f"{name}: no such MJCF model in {MODELS} (models: "
+                                f"{', '.join(shipped)})")
+    return path
 
 
 def load_model(name: str) -> mujoco.MjModel:
-    """Compile ``models/NAME``; a clear error if the file is missing."""
-    path = MODELS / name
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: MJCF model not found (mjsuff expects its models/ "
-                                "folder beside the package; install with pip install -e .)")
-    return mujoco.MjModel.from_xml_path(str(path))
+    """Compile the shipped MJCF model ``NAME`` (see ``model_path``)."""
+    return mujoco.MjModel.from_xml_path(str(model_path(name)))
 
 
 class Scene(abc.ABC):

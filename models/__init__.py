@@ -1,0 +1,1 @@
+"""MJCF models, installed as the package ``mjsuff.models`` (see pyproject.toml: package-dir)."""
