@@ -67,7 +67,12 @@ _STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3, "calibration":
 def seed_sequence(scenario: Scenario, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
     """The seed of one randomness stream (instance, demos, mcmc, selection, calibration) of a
     replicate (or of a calibration instance)."""
-    return np.random.SeedSequence(scenario.seed, spawn_key=(replicate, _STREAMS[stream], *key))
+    return stream_seed(scenario.seed, replicate, stream, *key)
+
+
+def stream_seed(seed: int, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
+    """``seed_sequence`` from the scenario's seed alone."""
+    return np.random.SeedSequence(seed, spawn_key=(replicate, _STREAMS[stream], *key))
 
 
 def posterior_bounds(post: Posterior, nevd: np.ndarray, piob: np.ndarray, alpha: float,

@@ -12,9 +12,10 @@ from collections.abc import Callable
 
 import mujoco
 import numpy as np
+from pydantic import BaseModel
 
 from mjsuff import __version__
-from mjsuff.experiment.replicate import seed_sequence
+from mjsuff.experiment.replicate import seed_sequence, stream_seed
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experiment.selection import passive_order
 from mjsuff.experts.demo_set import DemoSet
@@ -38,8 +39,15 @@ def scene_instance(scenario: Scenario, replicate: int = 0) -> tuple[Scene, np.nd
     if scenario.domain.name not in EXPERTS:
         raise ValueError(f"domain.name: demos are generated for the MuJoCo scenes "
                          f"{sorted(EXPERTS)}, not {scenario.domain.name!r}")
-    rng = np.random.default_rng(seed_sequence(scenario, replicate, "instance"))
-    scene = EXPERTS[scenario.domain.name][0](scenario.domain_params(), rng)
+    return replicate_instance(scenario.domain.name, scenario.domain_params(), scenario.seed, replicate)
+
+
+def replicate_instance(name: str, params: BaseModel, seed: int, replicate: int,
+                       threads: int | None = None) -> tuple[Scene, np.ndarray]:
+    """The scene instance and hidden weights of replicate ``replicate`` of a run of scene ``name``
+    with scenario seed ``seed`` (``scene_instance`` without the scenario)."""
+    rng = np.random.default_rng(stream_seed(seed, replicate, "instance"))
+    scene = EXPERTS[name][0](params, rng, threads)
     return scene, draw_true_weights(rng, scene.num_features)
 
 

@@ -91,22 +91,29 @@ class Lander(Scene):
         touching = (rollouts.sensordata[:, :, :2] > TOUCH_THRESHOLD).any(axis=2)
         return touching.any(axis=1), touching.argmax(axis=1)
 
-    def features(self, rollouts: Rollouts) -> np.ndarray:
-        x_end, z_end = rollouts.qpos[:, -1, 0], rollouts.qpos[:, -1, 1]
-        landing = (np.abs(x_end - self.pad_x) + np.clip(z_end - REST_HEIGHT, 0.0, None)) / 5.0
+    def step_features(self, rollouts: Rollouts, horizon: int | None = None) -> np.ndarray:
+        """Fuel and tilt are shared over the horizon's steps (their sum is the mean); ``impact``
+        falls on the first step a foot touches (or, never touched, on the last step); the landing
+        error on the last step."""
+        b, t = rollouts.qpos.shape[:2]
+        steps = horizon or t
+        out = np.zeros((b, t, 4))
+        out[:, :, 2] = rollouts.controls[:, :, 0] / steps
+        pitch = np.angle(np.exp(1j * rollouts.qpos[:, :, 2]))  # wrapped to [-π, π]
+        out[:, :, 3] = np.abs(pitch) / (np.pi / 2) / steps
         touched, first = self.touchdown(rollouts)
         # Speed just before contact (the step before the first touching step).
-        before = np.clip(first - 1, 0, None)
-        vz_contact = np.abs(rollouts.qvel[np.arange(len(first)), before, 1])
-        gravity = -self.model.opt.gravity[2]
-        height = np.clip(z_end - REST_HEIGHT, 0.0, None)
-        vz_end = rollouts.qvel[:, -1, 1]
-        vz_cut = np.sqrt(vz_end**2 + 2 * gravity * height)
-        impact = np.where(touched, vz_contact, vz_cut) / 5.0
-        fuel = rollouts.controls[:, :, 0].mean(axis=1)
-        pitch = np.angle(np.exp(1j * rollouts.qpos[:, :, 2]))  # wrapped to [-π, π]
-        tilt = np.abs(pitch).mean(axis=1) / (np.pi / 2)
-        return np.stack([landing, impact, fuel, tilt], axis=1)
+        rows = np.flatnonzero(touched)
+        before = np.clip(first[rows] - 1, 0, None)
+        out[rows, first[rows], 1] = np.abs(rollouts.qvel[rows, before, 1]) / 5.0
+        if t == steps:  # the rollout is whole: the last step's terms
+            x_end, z_end = rollouts.qpos[:, -1, 0], rollouts.qpos[:, -1, 1]
+            height = np.clip(z_end - REST_HEIGHT, 0.0, None)
+            out[:, -1, 0] = (np.abs(x_end - self.pad_x) + height) / 5.0
+            gravity = -self.model.opt.gravity[2]
+            vz_cut = np.sqrt(rollouts.qvel[:, -1, 1] ** 2 + 2 * gravity * height)
+            out[~touched, -1, 1] = vz_cut[~touched] / 5.0
+        return out
 
     def baseline_knots(self) -> np.ndarray:
         """A constant 40% throttle, held upright: a slow, unguided descent."""

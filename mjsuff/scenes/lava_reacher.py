@@ -115,13 +115,16 @@ class LavaReacher(Scene):
     def path(self, rollouts: Rollouts) -> np.ndarray:
         return rollouts.sensordata[:, :, :2]
 
-    def features(self, rollouts: Rollouts) -> np.ndarray:
+    def step_features(self, rollouts: Rollouts, horizon: int | None = None) -> np.ndarray:
+        """Each step's distance, lava depth and squared joint speed (module docs), divided by the
+        horizon's steps: their sum over a whole trajectory is the features' mean."""
         tip = self.path(rollouts)
-        distance = np.linalg.norm(tip - self.goal, axis=2).mean(axis=1) / REACH
+        steps = horizon or tip.shape[1]
+        distance = np.linalg.norm(tip - self.goal, axis=2) / REACH
         depth = self.lava_radius - np.linalg.norm(tip - self.lava_centre, axis=2)
-        lava = np.clip(depth, 0.0, None).mean(axis=1) / self.lava_radius
-        motion = (rollouts.qvel ** 2).sum(axis=2).mean(axis=1) / 100.0
-        return np.stack([distance, lava, motion], axis=1)
+        lava = np.clip(depth, 0.0, None) / self.lava_radius
+        motion = (rollouts.qvel**2).sum(axis=2) / 100.0
+        return np.stack([distance, lava, motion], axis=2) / steps
 
     def baseline_knots(self) -> np.ndarray:
         """Hold the start posture (targets = start angles): the do-nothing baseline."""

@@ -105,9 +105,21 @@ class Scene(abc.ABC):
         """The control at t = 0 from starts ``(B, nq)`` (anchored splines only)."""
         raise NotImplementedError(f"{type(self).__name__} does not anchor its controls")
 
-    @abc.abstractmethod
     def features(self, rollouts: Rollouts) -> np.ndarray:
-        """Reward features ``(B, k)`` of simulated trajectories (from states and sensors)."""
+        """Reward features ``(B, k)`` of simulated trajectories: ``φ(τ) = Σ_t φ_t``."""
+        return self.step_features(rollouts).sum(axis=1)
+
+    @abc.abstractmethod
+    def step_features(self, rollouts: Rollouts, horizon: int | None = None) -> np.ndarray:
+        """Each step's share ``φ_t`` ``(B, T, k)`` of the trajectories' features (from states and
+        sensors), so that ``Σ_t φ_t = φ(τ)``.
+
+        Causal: row ``t`` depends on steps ``0..t`` only, so the first ``T`` steps of a trajectory
+        of ``horizon`` steps (default: the rollouts are whole, ``horizon = T``) give the first
+        ``T`` rows of the whole trajectory's ``φ_t``; terms of the last step (where the craft
+        ended up, say) appear only once the rollout is whole. The dm_control environments
+        (``mjsuff.suite``) reward ``w·φ_t`` with this same code.
+        """
 
     @abc.abstractmethod
     def sample_starts(self, rng: np.random.Generator, count: int) -> np.ndarray:
