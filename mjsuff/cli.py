@@ -22,12 +22,15 @@ from rich.table import Table
 
 from mjsuff import __version__
 from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
-from mjsuff.experiment.backends import BackendError, make_backend
+from mjsuff.experiment.backends import BackendError, ClusterConnectionError, make_backend
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import CellResult, RunResult, run_scenario
 from mjsuff.experiment.scenario import Scenario, ScenarioError, load_scenario, shipped_scenarios
 
 EXIT_USAGE = 2
+#: The Ray cluster at --address cannot be reached or refused the connection (sysexits.h's
+#: EX_UNAVAILABLE): not bad input; nothing is written.
+EXIT_CLUSTER = 69
 EXIT_INTERRUPTED = 130
 
 #: Width of stdout off a terminal: wide enough that no table is cut and no line is wrapped.
@@ -148,10 +151,24 @@ def cmd_run(args: argparse.Namespace) -> int:
         except (DemoFileError, ValueError) as exc:
             err.print(f"[red]error:[/] --demos: {exc}", highlight=False, soft_wrap=True)
             return EXIT_USAGE
+    try:  # a cluster that cannot be used is found before anything is written to --out
+        backend.connect()
+    except ClusterConnectionError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_CLUSTER
+    except BackendError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        err.print("interrupted while connecting: nothing written", highlight=False)
+        return EXIT_INTERRUPTED
     try:
         with progress, _sigterm_interrupts():
             result = run_scenario(scenario, directory, args.overwrite, on_progress, sources,
                                   record=not args.no_record, backend=backend, resume=args.resume)
+    except ClusterConnectionError as exc:
+        err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return EXIT_CLUSTER
     except (OutputError, BackendError) as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
@@ -431,7 +448,11 @@ def build_parser() -> argparse.ArgumentParser:
                                      "decides, ground truth scores it",
                          description="Run a scenario file (or a shipped scenario by name: "
                                      "mjsuff scenarios lists them) and write steps.parquet, "
-                                     "summary.json and config.toml to the output directory.")
+                                     "summary.json and config.toml to the output directory.",
+                         epilog=f"exit status: 0 done, {EXIT_USAGE} bad input (nothing written), "
+                                f"{EXIT_CLUSTER} the Ray cluster at --address cannot be used "
+                                f"(nothing written), {EXIT_INTERRUPTED} interrupted (finished "
+                                "replicates kept; --resume continues)")
     run.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. scenarios/gridworld.toml or "
                                       "lava_reacher")
     run.add_argument("--out", help="output directory (default: runs/NAME-TIMESTAMP)")
