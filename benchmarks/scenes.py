@@ -36,7 +36,14 @@ from mjsuff.sphere import random_unit_vectors
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams), "lander": (Lander, LanderParams)}
 
 
+def make_scene(name: str, starts: int):
+    """A scene instance as every benchmark here builds it (seed 0, ``starts`` evaluation starts)."""
+    scene_type, params_type = SCENES[name]
+    return scene_type(params_type(eval_starts=starts), np.random.default_rng(0))
+
+
 def raw_steps_per_second(scene, trajectories: int = 2048, repeats: int = 5) -> float:
+    """Raw ``mujoco.rollout`` steps/s: uniform-random controls, best of ``repeats`` batches."""
     rng = np.random.default_rng(0)
     starts = scene.starts[rng.integers(len(scene.starts), size=trajectories)]
     anchor = scene.anchor(starts) if scene.spline.anchored else None
@@ -52,6 +59,16 @@ def raw_steps_per_second(scene, trajectories: int = 2048, repeats: int = 5) -> f
     return trajectories * scene.spline.num_steps / best
 
 
+def planner_steps_per_second(domain: SceneDomain, w: np.ndarray) -> tuple[float, float]:
+    """The planner's simulated steps/s planning ``w`` from every evaluation start, and its time."""
+    simulator = domain.scene.simulator
+    before = simulator.steps_simulated
+    t = time.perf_counter()
+    domain.plan(w)
+    plan_time = time.perf_counter() - t
+    return (simulator.steps_simulated - before) / plan_time, plan_time
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rewards", type=int, default=500)
@@ -63,8 +80,7 @@ def main() -> None:
     parser.add_argument("--scenes", nargs="+", choices=sorted(SCENES), default=list(SCENES))
     args = parser.parse_args()
     for name in args.scenes:
-        scene_type, params_type = SCENES[name]
-        scene = scene_type(params_type(eval_starts=args.starts), np.random.default_rng(0))
+        scene = make_scene(name, args.starts)
         raw = raw_steps_per_second(scene)
         t = time.perf_counter()
         domain = SceneDomain(scene, np.random.default_rng(1))
@@ -72,11 +88,7 @@ def main() -> None:
         rng = np.random.default_rng(2)
         weights = -np.abs(random_unit_vectors(rng, args.rewards, scene.num_features))
 
-        before = scene.simulator.steps_simulated
-        t = time.perf_counter()
-        domain.plan(weights[0])
-        plan_time = time.perf_counter() - t
-        planner_rate = (scene.simulator.steps_simulated - before) / plan_time
+        planner_rate, plan_time = planner_steps_per_second(domain, weights[0])
         raw = max(raw, raw_steps_per_second(scene))  # the machine's state may change in between
 
         t = time.perf_counter()
