@@ -32,9 +32,8 @@ import time
 
 import mujoco
 import numpy as np
-from scenes import SCENES, make_scene, planner_steps_per_second, raw_steps_per_second
+from scenes import SCENES, make_domain, make_scene, planner_steps_per_second, raw_steps_per_second
 
-from mjsuff.scenes.domain import SceneDomain
 from mjsuff.sphere import random_unit_vectors
 
 
@@ -44,7 +43,7 @@ def measure(names: list[str], starts: int) -> dict:
     for name in names:
         scene = make_scene(name, starts)
         raw = raw_steps_per_second(scene)
-        domain = SceneDomain(scene, np.random.default_rng(1))
+        domain = make_domain(scene, np.random.default_rng(1))
         w = -np.abs(random_unit_vectors(np.random.default_rng(2), 1, scene.num_features))[0]
         planner, plan_time = planner_steps_per_second(domain, w)
         raw = max(raw, raw_steps_per_second(scene))  # the machine's state may change in between

@@ -27,6 +27,7 @@ import time
 import numpy as np
 from mujoco import rollout
 
+from mjsuff.experts.generate import EXPERTS
 from mjsuff.scenes.domain import SceneDomain
 from mjsuff.scenes.lander import Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
@@ -34,6 +35,12 @@ from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.sphere import random_unit_vectors
 
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams), "lander": (Lander, LanderParams)}
+
+
+def make_domain(scene, rng: np.random.Generator) -> SceneDomain:
+    """The scene behind the Domain seam with its own expert (the random policy's paths)."""
+    expert = next(e for t, e in EXPERTS.values() if isinstance(scene, t))
+    return SceneDomain(scene, rng, expert=expert(scene))
 
 
 def make_scene(name: str, starts: int):
@@ -83,7 +90,7 @@ def main() -> None:
         scene = make_scene(name, args.starts)
         raw = raw_steps_per_second(scene)
         t = time.perf_counter()
-        domain = SceneDomain(scene, np.random.default_rng(1))
+        domain = make_domain(scene, np.random.default_rng(1))
         build_time = time.perf_counter() - t
         rng = np.random.default_rng(2)
         weights = -np.abs(random_unit_vectors(rng, args.rewards, scene.num_features))

@@ -50,7 +50,9 @@ class Domain(abc.ABC):
     true_weights: np.ndarray
     #: Probability of each evaluation start (shape ``(S,)``, sums to one).
     start_weights: np.ndarray
-    #: Evaluation-start index of every start a demonstration can be asked from (shape ``(P,)``).
+    #: The demonstration pool: one index per start a demonstration can be asked from (shape
+    #: ``(P,)``; ``Demo.start`` indexes this array). Tabular domains: the evaluation states the
+    #: demos start from; the scenes: starts of their own, never evaluated.
     pool: np.ndarray
 
     @abc.abstractmethod
@@ -75,15 +77,23 @@ class Domain(abc.ABC):
         """Discounted feature expectations of ``policy`` from each evaluation start -> ``(S, k)``."""
 
     @abc.abstractmethod
-    def optimal_start_values(self, weights: np.ndarray) -> np.ndarray:
+    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None) -> np.ndarray:
         """Optimal values ``V*_w(s)`` for a batch ``(N, k)`` of weights -> ``(N, S)``.
 
         Must never underestimate the optimum (an underestimate makes the bound optimistic).
+        ``robot`` (the robot policy's feature expectations ``(S, k)``) lets an approximate
+        domain spend its effort where the nEVD bound is decided; exact domains ignore it.
         """
 
     @abc.abstractmethod
+    def pool_regrets(self, weights: np.ndarray, map_weights: np.ndarray) -> np.ndarray:
+        """EVD ``(N, P)`` of the robot's policy for ``map_weights`` at each pool start, per sample
+        of ``weights`` ``(N, k)``: ``V*_w(p) − V^π_w(p)`` (active selection, paper Eq. 13)."""
+
+    @abc.abstractmethod
     def random_start_feature_expectations(self) -> np.ndarray:
-        """Feature expectations of the uniform-random policy from each evaluation start -> ``(S, k)``."""
+        """Feature expectations of the random policy (nEVD's ``V_rand``) from each evaluation
+        start -> ``(S, k)``: uniform-random for tabular domains; the domain says what it is."""
 
     @abc.abstractmethod
     def baseline_start_feature_expectations(self) -> np.ndarray:
@@ -98,8 +108,27 @@ class Domain(abc.ABC):
         """True when ``policy`` matches a held-out demo (the validation-set baseline)."""
 
     @abc.abstractmethod
-    def policy_optimality(self, policy: Policy) -> float:
-        """Ground truth: fraction of decisions of ``policy`` that are optimal under ``w*``."""
+    def policy_optimality(self, policy: Policy, best: np.ndarray | None = None) -> float:
+        """Ground truth: fraction of decisions of ``policy`` that are optimal under ``w*``;
+        ``best`` ``(S,)`` replaces ``true_optimal_start_values`` (raised by the replicate)."""
+
+    #: True when the prior is uniform on the whole sphere (``log_prior`` is 0 everywhere).
+    uniform_prior: bool = True
+
+    def log_prior(self, weights: np.ndarray) -> np.ndarray:
+        """Log prior density (up to a constant) of weights ``(N, k)`` -> ``(N,)``: uniform on the
+        sphere by default (0 everywhere); −inf outside a domain's support."""
+        return np.zeros(np.atleast_2d(weights).shape[0])
+
+    def sample_prior(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        """``count`` draws ``(count, k)`` from the prior (default: uniform on the sphere)."""
+        x = rng.standard_normal((count, self.num_features))
+        return x / np.linalg.norm(x, axis=1, keepdims=True)
+
+    def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:
+        """The best value under ``w`` ``(k,)`` of any trajectory the instance has simulated from
+        each evaluation start ``(S,)``; −inf where nothing is kept (exact domains)."""
+        return np.full(len(self.start_weights), -np.inf)
 
     def configure(self, scenario: Scenario) -> None:
         """Take scenario-level settings the domain reads (the scenes: expert, trajectory

@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from mjsuff.experts.ik import IKFailure, IKSettings, PathTracker
-from mjsuff.scenes.lava_reacher import HOME, LavaReacher, LavaReacherParams, fingertip_xy
+from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams, fingertip_xy
+
+HOME = np.array([-1.2, 1.3, 0.9])  # a comfortable posture, fingertip near (0.23, 0)
 
 
 @pytest.fixture(scope="module")

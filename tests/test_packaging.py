@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 SOURCES = ("pyproject.toml", "setup.py", "README.md", "mjsuff", "models", "scenarios")
 #: The smallest lava-reacher run that still simulates the model, asks the expert and plans.
 TINY = ["--replicates", "1", "--backend", "serial", "--no-record",
-        "--set", "domain.params.eval_starts=2", "--set", "domain.params.horizon=0.5",
+        "--set", "domain.params.eval_starts=2", "--set", "domain.params.horizon=1.0",
         "--set", "demos.max_demos=1", "--set", "posterior.num_samples=100",
         "--set", "domain.params.planning.planner={population=16, elites=4, iterations=2}",
         "--set", "domain.params.planning.seed_planner={population=16, elites=4, iterations=2}",

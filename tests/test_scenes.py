@@ -13,7 +13,7 @@ from mjsuff.scenes.scene import MODELS, load_model, model_path
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
           "lander": (Lander, LanderParams)}
 #: Documented feature ranges (see the scene modules' docstrings).
-RANGES = {"lava_reacher": [(0, 2), (0, 1), (0, 10)],
+RANGES = {"lava_reacher": [(0, 2 * 0.36 / 0.2), (0, 1 / 0.3), (0, 40)],
           "lander": [(0, 6), (0, 3), (0, 1), (0, 2)]}
 
 
@@ -79,16 +79,24 @@ def test_diverged_rollouts_are_flagged_and_not_scored(name):
     assert scene.simulator.diverged == before + 1  # counted for the run's report
 
 
-def test_lander_falls_without_thrust_and_touch_sensors_fire():
+def test_lander_climb_rate_loop_hovers_and_the_lowest_set_point_falls():
     scene = make("lander")
-    rollouts, features = scene.simulate(scene.starts[:1], np.zeros((1, *scene.spline.shape)))
+    hover = np.zeros((1, *scene.spline.shape))  # climb-rate set-point 0, upright
+    rollouts, features = scene.simulate(scene.starts[:1], hover)
+    z = rollouts.qpos[0, :, 1]
+    assert np.abs(z - scene.starts[0, 1]).max() < 0.05  # the loop holds the height
+    np.testing.assert_allclose(features[0, 2], 11 * 1.62 / 40, atol=0.01)  # thrust = weight
+    fall = np.zeros((1, *scene.spline.shape))
+    fall[:, :, 0] = scene.spline.low[0]  # sink at up to 4 m/s: the engine is off at first
+    rollouts, features = scene.simulate(scene.starts[:1], fall)
     z = rollouts.qpos[0, :, 1]
     touched, first = scene.touchdown(rollouts)
     assert touched[0] and z[first[0]] < REST_HEIGHT + 0.1 < scene.starts[0, 1]
     assert (np.diff(z[: first[0]]) < 0).all()  # falling until touchdown
     assert rollouts.sensordata[0, first[0], :2].max() > 0  # the touch sensors read contact
-    assert features[0, 1] > 0.4  # a hard, unbraked impact (> 2 m/s)
-    assert features[0, 2] == 0.0  # no fuel
+    assert rollouts.sensordata[0, 0, 2] == 0.0  # no thrust while the craft is slower than 3.3 m/s
+    assert features[0, 1] > 0.5  # a hard impact (> 2.5 m/s)
+    assert features[0, 2] < 0.2  # little fuel
 
 
 def test_reacher_lava_feature_only_inside_the_lava():

@@ -309,8 +309,13 @@ class TabularDomain(Domain):
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
         return self.mdp.successor_features(policy)
 
-    def optimal_start_values(self, weights: np.ndarray) -> np.ndarray:
+    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None) -> np.ndarray:
         return self.cache.optimal_values(weights)
+
+    def pool_regrets(self, weights: np.ndarray, map_weights: np.ndarray) -> np.ndarray:
+        weights = np.atleast_2d(weights)
+        mu = self.start_feature_expectations(self.plan(map_weights))
+        return self.cache.optimal_values(weights)[:, self.pool] - weights @ mu[self.pool].T
 
     def random_start_feature_expectations(self) -> np.ndarray:
         return self._random_mu
@@ -324,7 +329,7 @@ class TabularDomain(Domain):
     def agrees_with_demo(self, policy: np.ndarray, demo: Demo) -> bool:
         return int(policy[self.pool[demo.start]]) == demo.action
 
-    def policy_optimality(self, policy: np.ndarray) -> float:
+    def policy_optimality(self, policy: np.ndarray, best: np.ndarray | None = None) -> float:
         states = self.pool
         q = self._true_q[states]
         chosen = q[np.arange(states.size), policy[states]]

@@ -1,7 +1,7 @@
 """Demo-set files: the executed demonstrations of one scene instance, validated on load.
 
 A demo set is one ``.npz`` file (arrays only, no pickles) that holds, for ``N`` demos of ``T``
-steps: ``start_index (N,)`` (evaluation start), ``start_qpos (N, nq)``, ``qpos (N, T, nq)``,
+steps: ``start_index (N,)`` (demonstration-pool start), ``start_qpos (N, nq)``, ``qpos (N, T, nq)``,
 ``qvel (N, T, nv)``, ``controls (N, T, nu)``, ``features (N, k)``, ``intended``/``executed``
 ``(N, T, d)`` task-space paths (m), ``tracking_error (N,)`` (m), ``poor (N,)`` and ``meta``, a
 JSON string: format version, scene, scenario seed and replicate, an instance fingerprint, scene

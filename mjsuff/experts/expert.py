@@ -47,6 +47,9 @@ class ExecutedPaths:
         rollouts: The executed trajectories (``None`` when there are none).
         features: ``(C, k)`` their features (NaN where diverged).
         tracking_error: ``(C,)`` largest distance between intended and executed path (m).
+        knots: ``(C, K, nu)`` the spline knots that were executed, when the expert acts through
+            the robot's own control spline (the reacher); None when its controls are not a
+            spline (the lander's closed-loop thrust controller).
     """
 
     params: np.ndarray
@@ -55,6 +58,7 @@ class ExecutedPaths:
     rollouts: Rollouts | None
     features: np.ndarray
     tracking_error: np.ndarray
+    knots: np.ndarray | None = None
 
     @classmethod
     def empty(cls) -> ExecutedPaths:
@@ -117,6 +121,18 @@ class Expert(abc.ABC):
     def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int,
                 scale: float) -> np.ndarray:
         """``count`` candidates near ``params`` ``(p,)``, spread ``scale`` (1 = the coarse grid's)."""
+
+    def primitives(self, start_qpos: np.ndarray) -> np.ndarray:
+        """A reward-agnostic family of paths from a start ``(C, p)`` (default: the coarse grid):
+        executed once per start, they seed the robot's trajectory library when the expert acts
+        through the robot's spline (``ExecutedPaths.knots``)."""
+        return self.coarse_params(start_qpos)
+
+    @abc.abstractmethod
+    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator,
+                      count: int) -> np.ndarray:
+        """``count`` random goal-directed paths ``(count, p)`` of the family: parameters drawn
+        uniformly over their ranges, each path ending at the goal (the scenes' random policy)."""
 
     @abc.abstractmethod
     def execute(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[ExecutedPaths, list[str]]:

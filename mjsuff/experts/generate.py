@@ -54,7 +54,8 @@ def replicate_instance(name: str, params: BaseModel, seed: int, replicate: int,
 def instance_fingerprint(scene: Scene) -> str:
     """A short hash of what makes an instance: model geometry and evaluation starts."""
     h = hashlib.sha256()
-    for array in (scene.model.geom_pos, scene.model.geom_size, scene.model.site_pos, scene.starts):
+    for array in (scene.model.geom_pos, scene.model.geom_size, scene.model.site_pos, scene.starts,
+                  scene.pool_starts):
         h.update(np.ascontiguousarray(array, dtype=float).tobytes())
     return h.hexdigest()[:16]
 
@@ -70,14 +71,14 @@ def generate_demos(scenario: Scenario, count: int, replicate: int = 0,
                    stop: Callable[[], bool] | None = None) -> DemoSet:
     """``count`` demos of replicate ``replicate``'s instance, in the run's passive order.
 
-    Starts cycle through a shuffled order of the evaluation starts; a demo is poor with probability
+    Starts cycle through a shuffled order of the demonstration pool; a demo is poor with probability
     ``demos.noise_fraction``. ``on_demo(i, demo)`` reports progress. On ``KeyboardInterrupt`` the
     demos finished so far are returned (``meta["interrupted"]`` is True), never lost.
     """
     scene, weights = scene_instance(scenario, replicate)
     expert = EXPERTS[scenario.domain.name][1](scene, scenario.expert)
     demo_rng = np.random.default_rng(seed_sequence(scenario, replicate, "demos"))
-    order = passive_order(len(scene.starts),
+    order = passive_order(len(scene.pool_starts),
                           np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
     demos: list[ExpertDemo] = []
     starts: list[int] = []
@@ -86,7 +87,7 @@ def generate_demos(scenario: Scenario, count: int, replicate: int = 0,
         for i in range(count):
             start = int(order[i % len(order)])
             poor = bool(demo_rng.random() < scenario.demos.noise_fraction)
-            demos.append(expert.demonstrate(scene.starts[start], weights, demo_rng, poor=poor))
+            demos.append(expert.demonstrate(scene.pool_starts[start], weights, demo_rng, poor=poor))
             starts.append(start)
             if on_demo is not None:
                 on_demo(i, demos[-1])

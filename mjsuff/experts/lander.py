@@ -8,12 +8,14 @@ impulse spent so far, so the craft leans toward the pad, then back, and arrives 
 speed; ``A`` makes it shift by ``lateral`` × (pad − start), capped by the largest allowed pitch.
 The pitch is blended in from the start's own. Every path is thus one the engine can fly.
 mink IK (a frame task on the craft body, position and orientation) turns the pose path into
-references for the x, z and pitch joints, and a thrust controller tracks them: a PD law on
-position gives the desired force, its component along the body axis sets the throttle and its
-direction the pitch set-point of the attitude servo; after touchdown the engine is cut and the
-craft is held level. The controller runs in closed loop (all candidates stepped side by
-side); the executed controls replayed open loop through ``mujoco.rollout`` reproduce the same
-trajectory, and that replay is the demo.
+references for the x, z and pitch joints, and a controller tracks them in closed loop (all
+candidates stepped side by side): a PD law on position gives the desired force, its component
+along the body axis the thrust (through the engine's climb-rate loop, whose set-point it sets)
+and its direction the pitch set-point of the attitude servo; after touchdown the engine is cut
+and the craft is held level. The demonstrator then hands the robot the set-points at its control
+knots: the spline closest to the controller's set-points (least squares), flown open loop by the
+craft's own loops, is the demo. So a demo is a trajectory the robot's controls can express, and
+the planner is not handicapped against the demonstrator.
 """
 
 from __future__ import annotations
@@ -54,7 +56,11 @@ class LanderExpert(Expert):
                                    settings=ik or IKSettings(stride=10, iterations=3, tolerance=0.01))
         self.mass = float(m.body_subtreemass[m.body("craft").id])
         self.gravity = -float(m.opt.gravity[2])
-        self.max_thrust = float(m.actuator_gainprm[m.actuator("main").id, 0])
+        main = m.actuator("main").id
+        self.max_thrust = float(m.actuator_forcerange[main, 1])
+        #: The climb-rate loop: thrust = weight + gain × (set-point − axial speed).
+        self.loop_gain = float(m.actuator_gainprm[main, 0])
+        self.feedforward = float(m.actuator_biasprm[main, 0])
         self.horizon = scene.spline.num_steps * m.opt.timestep
         #: Largest upward acceleration the engine gives an upright craft (m/s²).
         self.brake_margin = self.max_thrust / self.mass - self.gravity
@@ -62,6 +68,14 @@ class LanderExpert(Expert):
     def coarse_params(self, start_qpos: np.ndarray) -> np.ndarray:
         axes = np.meshgrid(FALL, BRAKE, TOUCHDOWN_SPEEDS, LATERAL, indexing="ij")
         return np.stack(axes, -1).reshape(-1, 4)
+
+    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator,
+                      count: int) -> np.ndarray:
+        """Any fall, brake and touchdown speed of the family's ranges; at least half of the way
+        to the pad sideways."""
+        params = rng.uniform(LOW, HIGH, size=(count, 4))
+        params[:, 3] = rng.uniform(0.5, HIGH[3], count)
+        return params
 
     def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int,
                 scale: float) -> np.ndarray:
@@ -97,8 +111,10 @@ class LanderExpert(Expert):
 
     def control(self, qpos: np.ndarray, qvel: np.ndarray, touched: np.ndarray,
                 q_ref: np.ndarray, v_ref: np.ndarray, a_ref: np.ndarray) -> np.ndarray:
-        """Throttle and pitch set-points ``(C, 2)`` for all candidates, from their states and
-        references ``(C, 3)`` at this step."""
+        """Climb-rate and pitch set-points ``(C, 2)`` for all candidates, from their states and
+        references ``(C, 3)`` at this step: a PD law on position gives the force wanted, its
+        component along the body axis the thrust (through the climb-rate loop), its direction
+        the pitch."""
         force = self.mass * (a_ref[:, :2] + KP * (q_ref[:, :2] - qpos[:, :2])
                              + KD * (v_ref[:, :2] - qvel[:, :2]))
         force[:, 1] += self.mass * self.gravity
@@ -107,9 +123,15 @@ class LanderExpert(Expert):
                                 np.clip(np.arctan2(force[:, 0], force[:, 1]), -MAX_PITCH, MAX_PITCH),
                                 q_ref[:, 2])
         pitch_target = np.where(touched, 0.0, pitch_target)
-        throttle = (force[:, 0] * np.sin(pitch) + force[:, 1] * np.cos(pitch)) / self.max_thrust
-        throttle = np.where(touched, 0.0, np.clip(throttle, 0.0, 1.0))
-        return np.column_stack([throttle, pitch_target])
+        thrust = np.clip(force[:, 0] * np.sin(pitch) + force[:, 1] * np.cos(pitch), 0.0,
+                         self.max_thrust)
+        # The set-point that makes the climb-rate loop give that thrust now; after touchdown the
+        # lowest set-point, which cuts the engine.
+        axial = qvel[:, 0] * np.sin(pitch) + qvel[:, 1] * np.cos(pitch)
+        low, high = self.scene.spline.low[0], self.scene.spline.high[0]
+        setpoint = np.clip(axial + (thrust - self.feedforward) / self.loop_gain, low, high)
+        setpoint = np.where(touched, low, setpoint)
+        return np.column_stack([setpoint, pitch_target])
 
     def execute(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[ExecutedPaths, list[str]]:
         m, dt = self.scene.model, self.scene.model.opt.timestep
@@ -142,8 +164,14 @@ class LanderExpert(Expert):
             for d, u in zip(datas, controls[:, t], strict=True):
                 d.ctrl[:] = u
                 mujoco.mj_step(m, d)
-        rollouts, features = self.scene.simulate_controls(np.asarray(start_qpos), controls)
+        # The demonstrator hands the robot set-points at its control knots: the spline closest
+        # to the controller's set-points (least squares), flown open loop by the craft's own
+        # loops. The demo is then a trajectory the robot's controls can express.
+        spline = self.scene.spline
+        knots = spline.clip(np.einsum("kt,ctu->cku", np.linalg.pinv(spline.basis), controls))
+        rollouts, features = self.scene.simulate(np.asarray(start_qpos), knots)
         intended = np.array(paths)
         executed = rollouts.qpos[:, :, :2]
         error = np.linalg.norm(executed - intended, axis=2).max(axis=1)
-        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error), failures
+        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error,
+                             knots), failures

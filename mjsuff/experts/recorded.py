@@ -31,7 +31,7 @@ class RecordedDemos:
         self._used: set[int] = set()
 
     def demonstrate(self, start: int, rng: np.random.Generator, poor: bool = False) -> Demo:
-        """The file's next unused demo from evaluation start ``start`` (its own ``poor`` flag
+        """The file's next unused demo from pool start ``start`` (its own ``poor`` flag
         wins: the file says how the demo was made)."""
         a = self.demo_set.arrays
         for i in np.flatnonzero(a["start_index"] == start):
@@ -85,7 +85,7 @@ def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int
                 raise DemoFileError(f"{path}: field 'meta.{key}': expected {value!r}, got "
                                     f"{got.get(key)!r} (demos of another scene, instance or "
                                     "settings)")
-        pool = len(scene.starts)
+        pool = len(scene.pool_starts)
         order = passive_order(pool, np.random.default_rng(
             seed_sequence(scenario, replicate, "selection")))
         needed = np.bincount(order[: min(scenario.demos.max_demos or pool, pool)], minlength=pool)

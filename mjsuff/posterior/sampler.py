@@ -245,7 +245,8 @@ class _Chains:
         c, k = self.v.shape
         proposal = self.v + self.sigma[:, None] * self.rng.standard_normal((c, k))
         ll_prop = _checked(self.log_likelihood(normalize(proposal)))
-        log_ratio = ll_prop - self.ll + 0.5 * (_sq(self.v) - _sq(proposal))
+        with np.errstate(invalid="ignore"):  # −inf − (−inf): both outside the support, stay
+            log_ratio = ll_prop - self.ll + 0.5 * (_sq(self.v) - _sq(proposal))
         accept = np.log(self.rng.random(c)) < log_ratio
         self.v = np.where(accept[:, None], proposal, self.v)
         self.ll = np.where(accept, ll_prop, self.ll)

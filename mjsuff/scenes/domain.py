@@ -2,25 +2,45 @@
 
 A policy is the planner's knots from every evaluation start (``(S, K, nu)``); its feature
 expectations are the features of those simulated trajectories (the simulation is deterministic).
+Demonstrations come from a separate pool of starts (``Scene.pool_starts``): a policy is judged
+where it was never shown. Planners and the trajectory library index the evaluation starts first,
+then the pool (``Scene.all_starts``).
 
-Likelihood (DESIGN, trajectory-level Bayesian IRL). Demo ``j`` from start ``s_j`` with features
-``φ_j`` has ``P(φ_j | w) = exp(β w·φ_j) / Σ_{τ ∈ C_j} exp(β w·φ(τ))`` over a candidate set ``C_j``
-fixed when the demo is first seen: the demo itself; the library's best trajectory from ``s_j`` for
-each of a fixed spread of reward directions over the whole sphere (library optima: plans,
-refinements, or random trajectories); uniform-random
-trajectories from ``s_j``; and the demo's own controls under smooth perturbations of a few sizes,
-simulated. The perturbations matter: the planner's control splines cannot express everything a
-demonstrator does, so against planner trajectories alone the likelihood would favour whatever
-directions the demo happens to beat the planner in most; against its own neighbours it favours the
-directions under which the demo is locally optimal. A batch of weights costs one matrix product and
-a log-sum-exp per demo.
+Prior (the learner's, and the one ``w*`` is drawn from): uniform on the all-negative orthant of
+the sphere. Every scene feature is a cost by construction (distance, lava, motion; landing error,
+impact, fuel, tilt), so a learner that knows its features knows the signs; ``V*`` then only has
+to be right on that orthant, and the library is seeded there.
+
+Random policy (the nEVD denominator's ``V_rand``): random goal-directed paths of the
+demonstrator's own family (``Expert.random_params``: any detour, any pace, ending at the goal;
+``RANDOM_PATHS`` per evaluation start, executed by the expert when the instance is built);
+``μ_rand`` is their mean features per evaluation start. Like the paper's Lavaworld random policy
+(random paths that end at the goal), these are purposeful motions, so ``V* − V_rand`` is on the
+scale of the mistakes a wrong reward causes. (Uniform-random splines would be aimless: their gap is
+so large that any purposeful policy scores a tiny nEVD.) The library is seeded with the expert's
+primitives (its path family fitted to the robot's knots) from every start and with plans of
+``seed_directions`` prior draws, so it holds each mode's optimum before the first demo.
+
+Likelihood (DESIGN, trajectory-level Bayesian IRL). Demo ``j`` from pool start ``s_j`` with
+features ``φ_j`` has ``P(φ_j | w) = exp(β w·φ_j) / Σ_{τ ∈ C_j} exp(β w·φ(τ))`` over a candidate set
+``C_j`` fixed when the demo is first seen: the demo itself; the library's best trajectory from
+``s_j`` for each of a fixed spread of reward directions over the prior's orthant (library optima:
+plans, refinements, or random trajectories); uniform-random trajectories from ``s_j``; and the
+demo's own controls under smooth perturbations of a few sizes, simulated. The perturbations
+matter: against planner trajectories alone the likelihood would favour whatever directions the
+demo happens to beat the planner in most; against its own neighbours it favours the directions
+under which the demo is locally optimal. A batch of weights costs one matrix product and a
+log-sum-exp per demo.
 
 ``optimal_start_values`` answers ``V*_w(s)`` for many reward vectors at once from the per-start
-trajectory library (plans, candidates, random trajectories and the demos themselves), then refines
-where it can matter: weights are grouped by the library trajectory that is best for them, and each
-group is re-planned (warm-started from that trajectory, with a short budget) for the group's mean
-direction; everything simulated joins the library, and the answer is the library maximum again,
-so it never drops below it. Ground truth plans ``w*`` with a larger budget.
+trajectory library (every trajectory simulated: plans, refinements, candidates, random and seed
+trajectories, demos), a lower bound on ``V*`` that costs one matrix product, then refines where
+the bound is decided: given the robot's policy, only the samples in the upper tail of nEVD (the
+``tail_share`` largest) are refined, grouped by the library trajectory that is best for them; each
+group is re-planned from that trajectory (warm-started, short budget) for the group's mean
+direction, everything simulated joins the library, and the answer is the library maximum again,
+so it never drops below it. Ground truth plans ``w*`` with a larger budget (on a copy of the
+library), and the replicate raises it to the best of everything it simulated.
 """
 
 from __future__ import annotations
@@ -44,15 +64,26 @@ if TYPE_CHECKING:
     from mjsuff.experiment.scenario import Scenario
     from mjsuff.experts.expert import Expert
 
-#: Uniform-random trajectories per start that estimate the random policy's features.
-RANDOM_TRAJECTORIES = 64
-#: Reward directions (fixed, spread over the whole sphere) whose library optimum joins a demo's
-#: candidate set, and how many of the start's random trajectories join it too.
+#: Uniform-random trajectories per start: alternatives in the demos' candidate sets.
+RANDOM_TRAJECTORIES = 16
+#: Random goal-directed paths of the demonstrator's family per evaluation start (the random policy).
+RANDOM_PATHS = 16
+#: Reward directions (fixed, spread over the prior's orthant) whose library optimum joins a
+#: demo's candidate set.
 CANDIDATE_DIRECTIONS = 64
-CANDIDATE_RANDOM = 16
 #: Perturbed copies of a demo's controls per size; sizes as shares of the control range.
 PERTURBATIONS = 16
 PERTURBATION_SIZES = (0.02, 0.05, 0.1, 0.2)
+
+
+def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
+    """Hidden weights ``w*``: a draw from the prior (uniform on the all-negative orthant)."""
+    return sample_orthant(rng, 1, k)[0]
+
+
+def sample_orthant(rng: np.random.Generator, count: int, k: int) -> np.ndarray:
+    """``count`` draws ``(count, k)`` uniform on the all-negative orthant of the unit sphere."""
+    return -np.abs(random_unit_vectors(rng, count, k))
 
 
 class SceneDomain(Domain):
@@ -63,11 +94,10 @@ class SceneDomain(Domain):
         rng: Randomness of the hidden weights, the random policy and planning.
         planning: Budgets (``mjsuff.scenes.planning``): π for a reward vector; one refinement
             in ``optimal_start_values``, the most weight groups refined per start and round, the
-            rounds per call (groups are formed anew each round), and the cosine within which a
-            direction already refined from a start is not refined again (its optimum is in the
-            library already); random all-negative reward directions
-            planned from every start when the instance is built, so the library holds each
-            mode's optimum, and their budget; the ground-truth budget.
+            rounds per call, the share of nEVD's upper tail that is refined, and the cosine within
+            which a direction already refined from a start is not refined again; the prior
+            directions planned from every start when the instance is built (the random policy,
+            and the library's seed) and their budget; the ground-truth budget.
         expert: The kinesthetic demonstrator (``mjsuff.experts``); without one, ``demonstrate``
             raises.
         unchanged_tolerance: Two policies count as the same when, from every evaluation start,
@@ -86,43 +116,70 @@ class SceneDomain(Domain):
         self.scene = scene
         self.expert = expert
         self.rng = rng
-        self.num_features = scene.num_features
-        self.true_weights = draw_true_weights(rng, scene.num_features)
-        s = len(scene.starts)
+        k = self.num_features = scene.num_features
+        self.true_weights = draw_true_weights(rng, k)
+        s, p = len(scene.starts), len(scene.pool_starts)
+        everywhere = np.arange(s + p)
         self.start_weights = np.full(s, 1.0 / s)
-        self.pool = np.arange(s)
-        self.library = TrajectoryLibrary(s, scene.num_features, scene.spline.shape)
+        self.pool = np.arange(s, s + p)
+        self.library = TrajectoryLibrary(s + p, k, scene.spline.shape)
         planning = planning or PlanningSettings()
+        if planning.seed_directions < 1:
+            raise ValueError("planning.seed_directions: the random policy plans prior draws; "
+                             "at least 1 is needed")
         self.planning = planning
         self.planner = SamplingPlanner(scene, planning.planner or scene.planner_config, self.library)
         self.refiner = SamplingPlanner(scene, planning.refine or scene.refine_config, self.library)
-        self._refined = [np.empty((0, scene.num_features)) for _ in range(s)]
+        self._refined = [np.empty((0, k)) for _ in range(s + p)]
         self.unchanged_tolerance = unchanged_tolerance
         self.match_tolerance = match_tolerance
         self.optimal_gap = optimal_gap
-        knots = scene.spline.uniform(rng, RANDOM_TRAJECTORIES * s)
-        _, feats = scene.simulate(np.repeat(scene.starts, RANDOM_TRAJECTORIES, axis=0), knots)
-        feats = feats.reshape(s, RANDOM_TRAJECTORIES, -1)
-        for i in range(s):
-            self.library.add(i, feats[i], knots.reshape(s, RANDOM_TRAJECTORIES, *scene.spline.shape)[i])
+        knots = scene.spline.uniform(rng, RANDOM_TRAJECTORIES * (s + p))
+        _, feats = scene.simulate(np.repeat(scene.all_starts, RANDOM_TRAJECTORIES, axis=0), knots)
+        feats = feats.reshape(s + p, RANDOM_TRAJECTORIES, k)
+        knots = knots.reshape(s + p, RANDOM_TRAJECTORIES, *scene.spline.shape)
+        for i in everywhere:
+            self.library.add(int(i), feats[i], knots[i])
         self._random_features = feats
-        dead = np.flatnonzero(~np.isfinite(feats).all(axis=2).any(axis=1))
-        if dead.size:
-            raise RuntimeError(f"every random rollout from evaluation start {int(dead[0])} "
-                               "diverged; the scene or its control range is broken")
-        self._random_mu = np.nanmean(feats, axis=1)
+        if expert is None:
+            raise ValueError("a SceneDomain needs its expert: the random policy is random paths "
+                             "of the demonstrator's family (build it with make_scene_domain)")
+        for i in everywhere:  # the demonstrator's path family, where it is in the robot's class
+            done, _ = expert.execute(scene.all_starts[i], expert.primitives(scene.all_starts[i]))
+            if done.knots is not None and len(done.knots):
+                self.library.add(int(i), done.features, done.knots)
+        # The random policy: random goal-directed paths of that family from each evaluation start.
+        self._random_mu = np.empty((s, k))
+        for i in range(s):
+            start = scene.starts[i]
+            done, _ = expert.execute(start, expert.random_params(start, rng, RANDOM_PATHS))
+            valid = np.isfinite(done.features).all(axis=1) if len(done.params) else []
+            if not np.any(valid):
+                raise RuntimeError(f"no random path from evaluation start {i} could be executed")
+            self._random_mu[i] = done.features[valid].mean(axis=0)
+            if done.knots is not None:
+                self.library.add(i, done.features, done.knots)
+            else:
+                self.library.add_features(i, done.features)
+        # Seed plans: prior draws planned from every start, warm-started from the library, so it
+        # holds each mode's optimum before the first demo.
+        directions = sample_orthant(rng, planning.seed_directions, k)
+        problems = np.repeat(everywhere, len(directions))
+        tiled = np.tile(directions, (s + p, 1))
+        warm = np.stack([self.library.arrays(int(i))[1][self.library.best(int(i), d[None])[1][0]]
+                         for i, d in zip(problems, tiled, strict=True)])
+        seeds = SamplingPlanner(scene, planning.seed_planner or scene.seed_config, self.library).plan(
+            problems, tiled, rng, warm_knots=warm)
+        if not np.isfinite(seeds.features).all():
+            raise RuntimeError("a seed plan diverged in every rollout; the scene or its control "
+                               "range is broken")
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
-        if planning.seed_directions:
-            seeder = SamplingPlanner(scene, planning.seed_planner, self.library)
-            directions = -np.abs(random_unit_vectors(rng, planning.seed_directions,
-                                                     scene.num_features))
-            starts = np.repeat(np.arange(s), planning.seed_directions)
-            seeder.plan(starts, np.tile(directions, (s, 1)), rng)
         # Fixed, instance-independent directions: they must not draw from the instance's stream.
-        self._directions = random_unit_vectors(np.random.default_rng(0), CANDIDATE_DIRECTIONS,
-                                               scene.num_features)
+        self._directions = sample_orthant(np.random.default_rng(0), CANDIDATE_DIRECTIONS, k)
         self._candidates: dict[bytes, np.ndarray] = {}
         self._features: dict[bytes, np.ndarray] = {}
+        self._planned_for: dict[bytes, np.ndarray] = {}
+        self._pool_plans: dict[bytes, np.ndarray] = {}
         self._truth: np.ndarray | None = None
         # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
         self._truth_seed = int(rng.integers(2**63))
@@ -141,19 +198,32 @@ class SceneDomain(Domain):
         self.unchanged_tolerance = scenario.rules.unchanged_tolerance
         self.match_tolerance = scenario.rules.match_tolerance
 
+    # -- prior ---------------------------------------------------------------------------------
+    uniform_prior = False
+
+    def log_prior(self, weights: np.ndarray) -> np.ndarray:
+        """0 on the all-negative orthant, −inf elsewhere (module docs)."""
+        return np.where((np.atleast_2d(weights) <= 0.0).all(axis=1), 0.0, -np.inf)
+
+    def sample_prior(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        return sample_orthant(rng, count, self.num_features)
+
     # -- robot side ---------------------------------------------------------------------------
     def plan(self, w: np.ndarray) -> np.ndarray:
         """Planned knots ``(S, K, nu)`` from every evaluation start for reward weights ``w``."""
-        return self._plan(self.planner, w)
+        w = np.asarray(w, dtype=float)
+        knots = self._plan(self.planner, w, np.arange(len(self.scene.starts)))
+        self._planned_for[self.policy_key(knots)] = w.copy()
+        return knots
 
-    def _plan(self, planner: SamplingPlanner, w: np.ndarray) -> np.ndarray:
-        starts = np.arange(len(self.scene.starts))
+    def _plan(self, planner: SamplingPlanner, w: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        """Knots planned for ``w`` from library starts ``starts``, warm-started from the library."""
         weights = np.broadcast_to(np.asarray(w, dtype=float), (len(starts), self.num_features))
-        best = [self.library.best(s, weights[:1])[1][0] for s in starts]
+        best = [self.library.best(int(s), weights[:1])[1][0] for s in starts]
         if min(best) < 0:
-            raise RuntimeError(f"no valid trajectory from evaluation start {best.index(-1)} "
+            raise RuntimeError(f"no valid trajectory from start {int(starts[best.index(-1)])} "
                                "to warm-start from (every rollout diverged)")
-        warm = np.stack([self.library.arrays(s)[1][j] for s, j in zip(starts, best, strict=True)])
+        warm = np.stack([self.library.arrays(int(s))[1][j] for s, j in zip(starts, best, strict=True)])
         return planner.plan(starts, weights, self.rng, warm_knots=warm).knots
 
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
@@ -163,40 +233,84 @@ class SceneDomain(Domain):
             self._features[key] = features
         return self._features[key]
 
-    def optimal_start_values(self, weights: np.ndarray, refine: bool = True) -> np.ndarray:
+    def pool_features(self, policy: np.ndarray) -> np.ndarray:
+        """Features ``(P, k)`` of the policy's trajectories from the demonstration pool: the same
+        planner for the reward the policy was planned for, from each pool start (cached)."""
+        key = self.policy_key(policy)
+        if key not in self._pool_plans:
+            if key not in self._planned_for:
+                raise ValueError("pool_features: the policy was not planned by this domain")
+            knots = self._plan(self.planner, self._planned_for[key], self.pool)
+            _, self._pool_plans[key] = self.scene.simulate(self.scene.pool_starts, knots)
+        return self._pool_plans[key]
+
+    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None,
+                             refine: bool = True) -> np.ndarray:
+        """``V*_w(s)`` ``(N, S)`` at the evaluation starts: the library's best, refined (module docs).
+
+        Args:
+            robot: The robot policy's feature expectations ``(S, k)``: refinement goes to the
+                samples in the upper ``tail_share`` of nEVD against it. None: to every sample.
+            refine: False returns the library's best alone.
+        """
         weights = np.atleast_2d(weights)
         n, s = len(weights), len(self.scene.starts)
+        sw = self.start_weights
+        v_rand = weights @ (sw @ self._random_mu)
         for _ in range(self.planning.refine_rounds if refine else 0):
-            problems, groups = [], []
-            for start in range(s):
-                _, best = self.library.best(start, weights)
-                index, counts = np.unique(best, return_counts=True)
-                for j in index[np.argsort(-counts, kind="stable")][: self.planning.refine_groups]:
-                    direction = normalize(weights[best == j].mean(axis=0))
-                    done = self._refined[start]
-                    if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
-                        continue
-                    problems.append((start, j))
-                    groups.append(direction)
-                    self._refined[start] = np.concatenate([done, direction[None]])
-            if not problems:
+            focus = np.arange(n)
+            if robot is not None and n > 1:
+                values = np.stack([self.library.best_value(i, weights) for i in range(s)], axis=1)
+                v_opt = values @ sw
+                nevd = (v_opt - weights @ (sw @ robot)) / np.maximum(v_opt - v_rand, 1e-12)
+                count = max(1, int(np.ceil(self.planning.tail_share * n)))
+                focus = np.argsort(-nevd, kind="stable")[:count]
+            if not self._refine(weights[focus], range(s)):
                 break
-            starts = np.array([p[0] for p in problems])
-            warm = np.stack([self.library.arrays(st)[1][j] for st, j in problems])
-            self.refiner.plan(starts, np.array(groups), self.rng, warm_knots=warm)
         out = np.empty((n, s))
         for start in range(s):
             out[:, start] = self.library.best_value(start, weights)
         return out
 
+    def _refine(self, weights: np.ndarray, starts) -> bool:
+        """One refinement round for ``weights`` from ``starts``; False when nothing was new."""
+        problems, groups = [], []
+        for start in starts:
+            _, best = self.library.best(start, weights)
+            index, counts = np.unique(best, return_counts=True)
+            for j in index[np.argsort(-counts, kind="stable")][: self.planning.refine_groups]:
+                direction = normalize(weights[best == j].mean(axis=0))
+                done = self._refined[start]
+                if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
+                    continue
+                problems.append((start, j))
+                groups.append(direction)
+                self._refined[start] = np.concatenate([done, direction[None]])
+        if not problems:
+            return False
+        starts_ = np.array([p[0] for p in problems])
+        warm = np.stack([self.library.arrays(st)[1][j] for st, j in problems])
+        self.refiner.plan(starts_, np.array(groups), self.rng, warm_knots=warm)
+        return True
+
+    def pool_regrets(self, weights: np.ndarray, map_weights: np.ndarray) -> np.ndarray:
+        """Per-sample EVD ``(N, P)`` of π for ``map_weights`` at each pool start (Eq. 13's
+        input): the library's best there minus the sample's value of π's trajectory."""
+        weights = np.atleast_2d(weights)
+        policy = self.plan(map_weights)
+        mu = self.pool_features(policy)
+        best = np.stack([self.library.best_value(int(p), weights) for p in self.pool], axis=1)
+        return best - weights @ mu.T
+
     def true_optimal_start_values(self) -> np.ndarray:
-        """``V*_{w*}(s)`` per evaluation start ``(S,)``, computed once.
+        """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once.
 
         On a *copy* of the library, with randomness of its own (nothing of ``w*`` reaches the
         learner's library, warm starts or refinement record): ``w*`` planned from every start
         with ``truth_scale`` times the planner's population and refined, and, when there is an
-        expert, its best demo from every start (it can beat the planner's splines). The
-        library maximum under ``w*`` then.
+        expert, its best demo from every evaluation start (a demonstrator that is never asked
+        there in the run). The library maximum under ``w*`` then. The replicate raises it to
+        anything better it simulates later (``best_simulated_start_values``).
         """
         if self._truth is None:
             rng = np.random.default_rng(self._truth_seed)
@@ -204,10 +318,11 @@ class SceneDomain(Domain):
             starts = np.arange(len(self.scene.starts))
             w = np.tile(self.true_weights, (len(starts), 1))
             warm = np.stack([library.arrays(s)[1][library.best(s, w[:1])[1][0]] for s in starts])
-            plans = SamplingPlanner(self.scene, self.planner.config.scaled(self.planning.truth_scale),
-                               library).plan(starts, w, rng, warm_knots=warm)
-            SamplingPlanner(self.scene, self.refiner.config, library).plan(
-                starts, w, rng, warm_knots=plans.knots)
+            scale = self.planning.truth_scale
+            plans = SamplingPlanner(self.scene, self.planner.config.stronger(scale),
+                                    library).plan(starts, w, rng, warm_knots=warm)
+            SamplingPlanner(self.scene, self.refiner.config.stronger(scale),
+                            library).plan(starts, w, rng, warm_knots=plans.knots)
             if self.expert is not None:
                 best = type(self.expert)(self.scene, self.expert.settings.model_copy(
                     update={"rationality": None}))
@@ -216,6 +331,12 @@ class SceneDomain(Domain):
                     library.add_features(int(s), demo.features)
             self._truth = np.array([library.best_value(int(s), w[:1])[0] for s in starts])
         return self._truth
+
+    def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:
+        """The best value under ``w`` of everything simulated from each evaluation start so far
+        ``(S,)`` (the learner's library: plans, refinements, seeds, candidates)."""
+        w = np.atleast_2d(np.asarray(w, dtype=float))
+        return np.array([self.library.best_value(s, w)[0] for s in range(len(self.scene.starts))])
 
     def random_start_feature_expectations(self) -> np.ndarray:
         return self._random_mu
@@ -230,26 +351,28 @@ class SceneDomain(Domain):
         return bool(np.all(np.abs(diff) <= self.unchanged_tolerance))
 
     def agrees_with_demo(self, policy: np.ndarray, demo: Demo) -> bool:
-        """Matches: the policy's features from the demo's start within ``match_tolerance``."""
-        mine = self.start_feature_expectations(policy)[demo.start]
+        """Matches: the policy's trajectory from the demo's (pool) start has features within
+        ``match_tolerance`` of the demo's."""
+        mine = self.pool_features(policy)[demo.start]
         return bool(np.all(np.abs(mine - demo.data["features"]) <= self.match_tolerance))
 
-    def policy_optimality(self, policy: np.ndarray) -> float:
+    def policy_optimality(self, policy: np.ndarray, best: np.ndarray | None = None) -> float:
         """Share of evaluation starts whose trajectory is within ``optimal_gap`` of ``V*_{w*}(s)``
-        (in units of ``V*(s) − V_rand(s)``)."""
+        (in units of ``V*(s) − V_rand(s)``); ``best`` replaces the initial truth."""
         w = self.true_weights
-        best = self.true_optimal_start_values()
+        best = self.true_optimal_start_values() if best is None else best
         value = self.start_feature_expectations(policy) @ w
         scale = np.maximum(best - self._random_mu @ w, 1e-12)
         return float(np.mean(best - value <= self.optimal_gap * scale))
 
     # -- expert and likelihood ----------------------------------------------------------------
     def demonstrate(self, start: int, rng: np.random.Generator, poor: bool = False) -> Demo:
-        """The expert's executed demo from evaluation start ``start``; ``data`` holds its arrays
+        """The expert's executed demo from pool entry ``start``; ``data`` holds its arrays
         (``features``, ``qpos``, ``qvel``, ``controls``, ``intended``, ``executed``)."""
         if self.expert is None:
             raise RuntimeError("this SceneDomain has no expert; build it with make_scene_domain")
-        demo = self.expert.demonstrate(self.scene.starts[start], self.true_weights, rng, poor=poor)
+        demo = self.expert.demonstrate(self.scene.pool_starts[start], self.true_weights, rng,
+                                       poor=poor)
         data = {name: getattr(demo, name) for name in
                 ("features", "qpos", "qvel", "controls", "intended", "executed")}
         return Demo(start=start, poor=poor, data=data)
@@ -263,12 +386,12 @@ class SceneDomain(Domain):
         key = np.int64(demo.start).tobytes() + phi.tobytes()
         if key not in self._candidates:
             if phi.shape != (self.num_features,) or not np.isfinite(phi).all():
-                raise ValueError(f"demo from start {demo.start}: features must be "
+                raise ValueError(f"demo from pool start {demo.start}: features must be "
                                  f"{self.num_features} finite numbers, got {phi}")
-            s = demo.start
+            s = int(self.pool[demo.start])
             features, _ = self.library.arrays(s)
             best = np.unique(self.library.best(s, self._directions)[1])
-            randoms = self._random_features[s, :CANDIDATE_RANDOM]
+            randoms = self._random_features[s]
             parts = [phi[None], features[best], randoms[np.isfinite(randoms).all(axis=1)]]
             if "controls" in demo.data:
                 near = self._perturbed(s, np.asarray(demo.data["controls"], dtype=float),
@@ -286,7 +409,8 @@ class SceneDomain(Domain):
 
     def _perturbed(self, start: int, controls: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Features of ``controls`` ``(T, nu)`` plus smooth random offsets (zero at t = 0, hat
-        functions over the spline's knots), simulated from ``start``; diverged ones dropped."""
+        functions over the spline's knots), simulated from library start ``start``; diverged
+        ones dropped."""
         spline = self.scene.spline
         knots = spline.num_knots + 1
         basis = np.clip(1.0 - np.abs(np.linspace(0, 1, len(controls))[:, None]
@@ -299,7 +423,7 @@ class SceneDomain(Domain):
         high = np.maximum(spline.high, controls.max(axis=0))
         batch = np.clip(controls + offsets * (spline.high - spline.low), low, high)
         _, features = self.scene.simulate_controls(
-            np.repeat(self.scene.starts[start][None], len(batch), axis=0), batch)
+            np.repeat(self.scene.all_starts[start][None], len(batch), axis=0), batch)
         return features[np.isfinite(features).all(axis=1)]
 
     def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
@@ -310,11 +434,6 @@ class SceneDomain(Domain):
             values = beta * (weights @ self.candidate_features(demo).T)
             total += values[:, 0] - logsumexp(values, axis=1)
         return total
-
-
-def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
-    """Hidden weights ``w*``: uniform on the all-negative part of the unit sphere (every feature a cost)."""
-    return -np.abs(random_unit_vectors(rng, 1, k)[0])
 
 
 def make_scene_domain(scene_type: type[Scene], params: BaseModel,

@@ -1,9 +1,11 @@
 """Lander (analog of Gym's LunarLander): a planar craft lands on a pad under lunar gravity.
 
-The craft has slide joints x and z and a pitch hinge; controls are the main throttle in [0, 1]
-(up to 40 N along the body axis; the craft weighs 17.8 N on the Moon) and the attitude servo's
-pitch set-point in [−0.8, 0.8] rad (tracked with at most 3 N m, in about 0.5 s). Its two legs carry
-touch sensors.
+The craft has slide joints x and z and a pitch hinge; controls are the set-point of its speed along
+its body axis in [−4, 2] m/s, tracked by the main engine's climb-rate loop (thrust = weight +
+25 N s/m × error, 0 to 40 N along the body axis; the craft weighs 17.8 N on the Moon), and the
+attitude servo's pitch set-point in [−0.8, 0.8] rad (tracked with at most 3 N m, in about 0.5 s),
+as a flight controller would take them. Its two legs carry touch sensors; a sensor reads the
+engine's thrust.
 
 Features (k = 4), from the simulated states and touch sensors:
 
@@ -12,7 +14,7 @@ Features (k = 4), from the simulated states and touch sensors:
 * ``impact`` — vertical speed at the first step either foot touches the ground, divided by 5 m/s;
   if the craft has not touched down by the end, the speed it would hit the ground with if the
   engine were cut then (``√(v_z² + 2 g h)``), so hovering does not dodge it; range [0, ~3].
-* ``fuel`` — mean throttle over the horizon; range [0, 1].
+* ``fuel`` — mean thrust over the horizon as a share of the engine's 40 N; range [0, 1].
 * ``tilt`` — mean |pitch| (wrapped to [0, π]) divided by π/2; range [0, 2].
 
 Instances randomize the pad position (x in [−4, 4] m) and the start distribution's draws (x in
@@ -35,6 +37,8 @@ FEATURE_NAMES = ("landing_error", "impact", "fuel", "tilt")
 #: Height of the craft's body origin when it stands on its legs (m).
 REST_HEIGHT = 0.53
 TOUCH_THRESHOLD = 1e-6
+#: The main engine's largest thrust (N), as in the MJCF file.
+MAX_THRUST = 40.0
 
 
 class LanderParams(BaseModel):
@@ -42,7 +46,8 @@ class LanderParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
 
-    eval_starts: int = Field(16, ge=1, le=256, description="fixed evaluation starts")
+    eval_starts: int = Field(6, ge=1, le=256, description="fixed evaluation starts (never demonstrated)")
+    pool_starts: int = Field(10, ge=1, le=256, description="starts a demonstration can be asked from")
     horizon: float = Field(4.0, gt=0.5, le=20.0, description="trajectory length (s)")
     knots: int = Field(5, ge=2, le=20, description="control knots per actuator")
     planning: PlanningSettings = Field(PlanningSettings(), description="planning budgets")
@@ -50,7 +55,8 @@ class LanderParams(BaseModel):
     @model_validator(mode="after")
     def _scene_defaults(self) -> LanderParams:
         # Unset budgets become the scene's tested ones, so a resolved scenario says what ran.
-        self.planning = self.planning.resolved(Lander.planner_config, Lander.refine_config)
+        self.planning = self.planning.resolved(Lander.planner_config, Lander.refine_config,
+                                               Lander.seed_config)
         return self
 
 
@@ -59,13 +65,14 @@ class Lander(Scene):
 
     feature_names = FEATURE_NAMES
     path_axes = (0, 2)  # the craft moves in the world x-z plane
-    # Touchdown makes the landscape multi-modal and ridged: a wide CEM phase picks the basin, CMA-ES
-    # follows the soft-landing ridge (3072 rollouts per problem; tests/test_planner.py).
-    planner_config = PlannerConfig(population=64, elites=6, iterations=12, initial_std=0.5,
-                                   cma_population=24, cma_iterations=96, cma_sigma=0.1)
-    # V* refinement needs depth here: CMA-ES from the group's best library trajectory (1152
-    # rollouts; a 320-rollout CEM left V* 1.8% below per-reward planning).
-    refine_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=48, cma_sigma=0.1)
+    # Touchdown makes the landscape multi-modal and ridged. π and V* refinement start from the
+    # library's best for the reward (seed plans of prior draws, every plan since) and follow the
+    # soft-landing ridge with CMA-ES; the seed plans need the global search: a wide CEM phase
+    # picks the basin, CMA-ES polishes (tests/test_planner.py).
+    planner_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=48, cma_sigma=0.1)
+    refine_config = PlannerConfig(iterations=0, cma_population=16, cma_iterations=24, cma_sigma=0.1)
+    seed_config = PlannerConfig(population=48, elites=6, iterations=10, initial_std=0.5,
+                                cma_population=16, cma_iterations=32, cma_sigma=0.1)
 
     def __init__(self, params: LanderParams, rng: np.random.Generator,
                  threads: int | None = None) -> None:
@@ -77,6 +84,7 @@ class Lander(Scene):
         ctrl = self.model.actuator_ctrlrange
         self.spline = ControlSpline(params.knots, steps, ctrl[:, 0], ctrl[:, 1])
         self.starts = self.sample_starts(rng, params.eval_starts)
+        self.pool_starts = self.sample_starts(rng, params.pool_starts)
         super().__init__(threads)
 
     def sample_starts(self, rng: np.random.Generator, count: int) -> np.ndarray:
@@ -98,7 +106,7 @@ class Lander(Scene):
         b, t = rollouts.qpos.shape[:2]
         steps = horizon or t
         out = np.zeros((b, t, 4))
-        out[:, :, 2] = rollouts.controls[:, :, 0] / steps
+        out[:, :, 2] = rollouts.sensordata[:, :, 2] / MAX_THRUST / steps
         pitch = np.angle(np.exp(1j * rollouts.qpos[:, :, 2]))  # wrapped to [-π, π]
         out[:, :, 3] = np.abs(pitch) / (np.pi / 2) / steps
         touched, first = self.touchdown(rollouts)
@@ -116,7 +124,7 @@ class Lander(Scene):
         return out
 
     def baseline_knots(self) -> np.ndarray:
-        """A constant 40% throttle, held upright: a slow, unguided descent."""
+        """Sink at 1 m/s, held upright: a slow, unguided descent."""
         knots = np.zeros((len(self.starts), *self.spline.shape))
-        knots[:, :, 0] = 0.4
+        knots[:, :, 0] = -1.0
         return knots

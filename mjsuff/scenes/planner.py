@@ -45,9 +45,9 @@ class SamplingPlanner:
     def plan(self, starts: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
              warm_knots: np.ndarray | None = None) -> Plans:
         """Best trajectories for problems ``(start index, w)``: ``starts`` ``(B,)`` index the
-        scene's evaluation starts, ``weights`` is ``(B, k)``, ``warm_knots`` ``(B, K, nu)``."""
+        scene's ``all_starts``, ``weights`` is ``(B, k)``, ``warm_knots`` ``(B, K, nu)``."""
         starts = np.asarray(starts)
-        mean = (self.scene.initial_knots(self.scene.starts[starts])
+        mean = (self.scene.initial_knots(self.scene.all_starts[starts])
                 if warm_knots is None else np.array(warm_knots, dtype=float))
         best = _Best(mean.copy(), len(starts), self.scene.num_features)
         self._cem(starts, weights, rng, mean, best)
@@ -60,7 +60,7 @@ class SamplingPlanner:
         """Simulate knots ``(B, P, K, nu)``; -> features ``(B, P, k)``, values ``(B, P)``
         (−inf for diverged rollouts). Every valid trajectory joins the library."""
         b, p = samples.shape[:2]
-        _, features = self.scene.simulate(np.repeat(self.scene.starts[starts], p, axis=0),
+        _, features = self.scene.simulate(np.repeat(self.scene.all_starts[starts], p, axis=0),
                                           samples.reshape(b * p, *samples.shape[2:]))
         features = features.reshape(b, p, -1)
         values = np.einsum("bpk,bk->bp", features, weights)

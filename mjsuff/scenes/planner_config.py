@@ -40,6 +40,14 @@ class PlannerConfig(BaseModel):
         """Rollouts per problem."""
         return self.population * self.iterations + self.cma_population * self.cma_iterations
 
+    def stronger(self, factor: float) -> PlannerConfig:
+        """The same planner with about ``factor`` × the budget, half from larger populations and
+        half from more iterations (each × √factor): wider and longer search."""
+        root = factor**0.5
+        return self.scaled(root).model_copy(update={
+            "iterations": round(self.iterations * root),
+            "cma_iterations": round(self.cma_iterations * root)})
+
     def scaled(self, factor: float) -> PlannerConfig:
         """The same planner with ``factor`` times the populations (and elites): ``factor`` × budget."""
         return self.model_copy(update={"population": int(self.population * factor),

@@ -23,18 +23,27 @@ class PlanningSettings(BaseModel):
                           "unset = the scene's tested default")
     refine_groups: int = Field(16, ge=0, description="most weight groups refined per start and round")
     refine_rounds: int = Field(2, ge=0, description="refinement rounds per V* call")
+    tail_share: float = Field(
+        0.15, gt=0.0, le=1.0,
+        description="V*: the share of samples with the largest nEVD whose V* is refined (the "
+                    "upper tail decides the bound)")
     revisit_cosine: float = Field(
         0.999, gt=0.0, le=1.0,
         description="a group within this cosine of a direction already refined from the same "
                     "start is not refined again")
     seed_directions: int = Field(
-        8, ge=0, description="all-negative reward directions planned from every start up front")
-    seed_planner: PlannerConfig = Field(
-        PlannerConfig(population=32, elites=4, iterations=16), description="budget of those plans")
-    truth_scale: float = Field(4.0, ge=1.0, description="ground truth plans w* with this × the "
-                                                        "planner's population")
+        8, ge=1, description="prior draws (all-negative reward directions) planned from every "
+                             "start up front: the random policy, and the library's seed")
+    seed_planner: PlannerConfig | None = Field(
+        None, description="budget of those plans (warm-started from the library); unset = the "
+                          "scene's tested default")
+    truth_scale: float = Field(4.0, ge=1.0, description="ground truth plans w* with about this × "
+                                                        "the planner's budget (PlannerConfig.stronger)")
 
-    def resolved(self, planner: PlannerConfig, refine: PlannerConfig) -> PlanningSettings:
-        """These settings with a scene's tested ``planner`` and ``refine`` where they are unset."""
+    def resolved(self, planner: PlannerConfig, refine: PlannerConfig,
+                 seed: PlannerConfig) -> PlanningSettings:
+        """These settings with a scene's tested ``planner``, ``refine`` and ``seed_planner``
+        where they are unset."""
         return self.model_copy(update={"planner": self.planner or planner,
-                                       "refine": self.refine or refine})
+                                       "refine": self.refine or refine,
+                                       "seed_planner": self.seed_planner or seed})

@@ -8,6 +8,7 @@ weights chosen elsewhere.
 from __future__ import annotations
 
 import abc
+import functools
 from pathlib import Path
 
 import mujoco
@@ -47,13 +48,20 @@ class Scene(abc.ABC):
     Attributes:
         model: This instance's compiled model (goal, hazards moved into place).
         spline: The control parameterization shared by planner, random policy and expert.
-        starts: ``(S, nq)`` joint positions of the fixed evaluation starts (at rest).
+        starts: ``(S, nq)`` joint positions of the fixed evaluation starts (at rest), where
+            policies are judged and never demonstrated.
+        pool_starts: ``(P, nq)`` joint positions of the demonstration pool, drawn apart from the
+            evaluation starts (a policy is judged where it was not shown).
         feature_names: The ``k`` feature names, in order.
+
+    Planners and trajectory libraries index :attr:`all_starts`: the evaluation starts first
+    (``0 … S−1``), then the pool (``S … S+P−1``).
     """
 
     model: mujoco.MjModel
     spline: ControlSpline
     starts: np.ndarray
+    pool_starts: np.ndarray
     feature_names: tuple[str, ...]
     #: The world axes (of x, y, z) that the two coordinates of ``path`` lie along.
     path_axes: tuple[int, int] = (0, 1)
@@ -62,6 +70,8 @@ class Scene(abc.ABC):
     #: One warm-started V* refinement for a group of reward vectors (tests/test_planner.py).
     refine_config: PlannerConfig = PlannerConfig(population=32, elites=4, iterations=10,
                                                  initial_std=0.1)
+    #: The seed plans of prior draws from every start (the random policy; the library's seed).
+    seed_config: PlannerConfig = PlannerConfig(population=32, elites=4, iterations=16)
 
     def __init__(self, threads: int | None = None) -> None:
         self.simulator = Simulator(self.model, threads)
@@ -69,6 +79,11 @@ class Scene(abc.ABC):
     @property
     def num_features(self) -> int:
         return len(self.feature_names)
+
+    @functools.cached_property
+    def all_starts(self) -> np.ndarray:
+        """Evaluation starts, then the demonstration pool: ``(S + P, nq)``."""
+        return np.concatenate([self.starts, self.pool_starts])
 
     def start_states(self, qpos: np.ndarray) -> np.ndarray:
         """Full-physics states at rest for joint positions ``(B, nq)``."""
