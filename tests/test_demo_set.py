@@ -36,7 +36,8 @@ def test_round_trip_gives_identical_arrays(saved, scenario):
     for name, array in demo_set.arrays.items():
         np.testing.assert_array_equal(loaded.arrays[name], array, err_msg=name)
     np.testing.assert_array_equal(loaded.true_weights, weights)
-    assert loaded.meta["mujoco_version"] and loaded.meta["feature_names"] == ["distance", "lava", "motion"]
+    assert loaded.meta["mujoco_version"]
+    assert loaded.meta["feature_names"] == ["distance", "lava", "water", "motion"]
     # The learner's file does not hold the true weights.
     with np.load(path) as data:
         assert not any("weight" in name for name in data.files)
@@ -117,7 +118,7 @@ def test_truth_file_problems_are_named(saved, tmp_path):
     with pytest.raises(DemoFileError, match=r"copy\.truth\.json: not a readable truth file"):
         load_demo_set(copy, truth=True)
     truth_path(copy).write_text(json.dumps({"true_weights": [1.0], "values": None}))
-    with pytest.raises(DemoFileError, match="field 'true_weights': expected 3 values"):
+    with pytest.raises(DemoFileError, match="field 'true_weights': expected 4 values"):
         load_demo_set(copy, truth=True)
 
 

@@ -199,7 +199,8 @@ def test_bad_demo_features_are_a_clear_error(case):
 
 
 def test_mcmc_matches_the_exact_posterior_on_the_reacher():
-    """k = 3: the sampler against the sphere-grid posterior of the same trajectory likelihood."""
+    """k = 4: the sampler against the posterior of the same trajectory likelihood tabulated on
+    400,000 uniform sphere points."""
     domain = small_domain("lava_reacher", seed=12)
     rng = np.random.default_rng(13)
     demos = [domain.demonstrate(s, rng) for s in range(3)]
@@ -207,9 +208,9 @@ def test_mcmc_matches_the_exact_posterior_on_the_reacher():
     def problem(w):
         return domain.log_likelihood(w, demos, 2.0)
 
-    exact = grid_posterior(problem, num_points=40_000)
+    exact = grid_posterior(problem, num_points=400_000, k=4, rng=np.random.default_rng(14))
     assert np.linalg.norm(exact.mean) > 0.3  # informative, or agreement would prove nothing
-    post = sample_posterior(problem, 3, SamplerConfig(
+    post = sample_posterior(problem, 4, SamplerConfig(
         num_samples=12_000, chains=8, burn_in=400, thin=2), np.random.default_rng(0))
     # The same tolerances as the tabular check (tests/test_sampler.py): about four Monte Carlo
     # standard errors for ~1500 draws per chain.

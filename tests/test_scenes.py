@@ -13,7 +13,7 @@ from mjsuff.scenes.scene import MODELS, load_model, model_path
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
           "lander": (Lander, LanderParams)}
 #: Documented feature ranges (see the scene modules' docstrings).
-RANGES = {"lava_reacher": [(0, 2 * 0.36 / 0.2), (0, 1 / 0.3), (0, 40)],
+RANGES = {"lava_reacher": [(0, 2 * 0.36 / 0.2), (0, 1 / 0.1), (0, 1 / 0.1), (0, 40)],
           "lander": [(0, 6), (0, 3), (0, 1), (0, 2)]}
 
 
@@ -99,18 +99,32 @@ def test_lander_climb_rate_loop_hovers_and_the_lowest_set_point_falls():
     assert features[0, 2] < 0.2  # little fuel
 
 
-def test_reacher_lava_feature_only_inside_the_lava():
+@pytest.mark.parametrize(("hazard", "column"), [("lava", 1), ("water", 2)])
+def test_reacher_hazard_feature_only_inside_its_disk(hazard, column):
     scene = make("lava_reacher", 5)
     rng = np.random.default_rng(0)
     q = rng.uniform(-2.5, 2.5, size=(20_000, 3))
     tip = fingertip_xy(q)
-    depth = scene.lava_radius - np.linalg.norm(tip - scene.lava_centre, axis=1)
-    inside, outside = q[depth > 0.5 * scene.lava_radius][:1], q[depth < -0.02][:1]
-    for start, expect_lava in ((inside, True), (outside, False)):
+    centre, radius = getattr(scene, f"{hazard}_centre"), getattr(scene, f"{hazard}_radius")
+    depth = radius - np.linalg.norm(tip - centre, axis=1)
+    inside, outside = q[depth > 0.5 * radius][:1], q[depth < -0.02][:1]
+    for start, expect in ((inside, True), (outside, False)):
         hold = np.repeat(start[:, None, :], scene.spline.num_knots, axis=1)  # hold still there
         _, features = scene.simulate(start, hold)
-        assert (features[0, 1] > 0.3) == expect_lava
-        assert features[0, 2] < 1e-6  # no motion
+        assert (features[0, column] > 0.3) == expect
+        assert features[0, 3 - column] == 0.0  # the disks are apart: never in both
+        assert features[0, 3] < 1e-6  # no motion
+
+
+def test_reacher_starts_alternate_sides_and_each_side_faces_its_own_hazard():
+    scene = make("lava_reacher", 2, pool_starts=10)
+    assert scene.start_sides.tolist() == [0, 1, 0, 1] and sorted(scene.pool_sides) == [0] * 5 + [1] * 5
+    for starts, sides in ((scene.starts, scene.start_sides), (scene.pool_starts, scene.pool_sides)):
+        tip = fingertip_xy(starts)
+        # Each start is nearer its own side's hazard than the other's.
+        near = np.linalg.norm(tip - scene.hazard_centres[sides], axis=1)
+        far = np.linalg.norm(tip - scene.hazard_centres[1 - sides], axis=1)
+        assert (near < far).all()
 
 
 def plan_features(scene, w, seed=0):
@@ -123,9 +137,11 @@ def plan_features(scene, w, seed=0):
 
 def test_reacher_detours_around_lava_only_when_it_matters():
     scene = make("lava_reacher", 0)
-    careful = plan_features(scene, [-0.3, -0.95, -0.05])
-    careless = plan_features(scene, [-0.95, -0.01, -0.05])
-    assert careful[:, 1].mean() < 0.25 * careless[:, 1].mean()  # far less lava exposure
+    careful = plan_features(scene, [-0.3, -0.95, -0.95, -0.05])
+    careless = plan_features(scene, [-0.95, -0.01, -0.01, -0.05])
+    exposure = {k: f[:, 1:3].sum(axis=1).mean() for k, f in (("careful", careful),
+                                                             ("careless", careless))}
+    assert exposure["careful"] < 0.25 * exposure["careless"]  # far less lava and water exposure
     assert careful[:, 0].mean() > careless[:, 0].mean()  # paid for with a longer way to the goal
 
 

@@ -68,6 +68,8 @@ if TYPE_CHECKING:
 RANDOM_TRAJECTORIES = 16
 #: Random goal-directed paths of the demonstrator's family per evaluation start (the random policy).
 RANDOM_PATHS = 16
+#: Most rounds of ``RANDOM_PATHS`` draws until that many paths could be executed.
+RANDOM_PATH_ROUNDS = 8
 #: Reward directions (fixed, spread over the prior's orthant) whose library optimum joins a
 #: demo's candidate set.
 CANDIDATE_DIRECTIONS = 64
@@ -151,16 +153,22 @@ class SceneDomain(Domain):
         # The random policy: random goal-directed paths of that family from each evaluation start.
         self._random_mu = np.empty((s, k))
         for i in range(s):
-            start = scene.starts[i]
-            done, _ = expert.execute(start, expert.random_params(start, rng, RANDOM_PATHS))
-            valid = np.isfinite(done.features).all(axis=1) if len(done.params) else []
-            if not np.any(valid):
-                raise RuntimeError(f"no random path from evaluation start {i} could be executed")
-            self._random_mu[i] = done.features[valid].mean(axis=0)
-            if done.knots is not None:
-                self.library.add(i, done.features, done.knots)
-            else:
-                self.library.add_features(i, done.features)
+            start, found = scene.starts[i], []
+            for _ in range(RANDOM_PATH_ROUNDS):  # paths the expert cannot track are drawn again
+                done, _ = expert.execute(start, expert.random_params(start, rng, RANDOM_PATHS))
+                if not len(done.params):
+                    continue
+                if done.knots is not None:
+                    self.library.add(i, done.features, done.knots)
+                else:
+                    self.library.add_features(i, done.features)
+                found.extend(done.features[np.isfinite(done.features).all(axis=1)])
+                if len(found) >= RANDOM_PATHS:
+                    break
+            if not found:
+                raise RuntimeError(f"no random path from evaluation start {i} could be executed "
+                                   f"in {RANDOM_PATH_ROUNDS * RANDOM_PATHS} tries")
+            self._random_mu[i] = np.mean(found[:RANDOM_PATHS], axis=0)
         # Seed plans: prior draws planned from every start, warm-started from the library, so it
         # holds each mode's optimum before the first demo.
         directions = sample_orthant(rng, planning.seed_directions, k)

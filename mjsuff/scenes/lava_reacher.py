@@ -1,30 +1,35 @@
 """Lava reacher (analog of the paper's Lavaworld): a planar 3-link arm brings its fingertip to a
-goal past a lava disk that lies across the way, moving smoothly.
+goal from either side, past a hazard that lies across the way on that side, moving smoothly.
 
-Features (k = 3), from the simulated fingertip (``framepos`` sensor) and joint velocities, each a
+Features (k = 4), from the simulated fingertip (``framepos`` sensor) and joint velocities, each a
 mean over the horizon's steps (so a step's share is its value divided by the steps):
 
-* ``distance`` — fingertip-to-goal distance divided by ``DISTANCE_SCALE`` (0.2 m); about 1 at the
+* ``distance`` — fingertip-to-goal distance divided by ``DISTANCE_SCALE`` (0.2 m); about 2 at the
   start, 0 once at the goal: how soon the arm gets there.
 * ``lava`` — penetration depth into the lava disk, ``max(0, r − ‖tip − c‖) / r``, divided by
-  ``LAVA_SCALE`` (0.3); 0 outside the disk: a smooth exposure, not a 0/1 hit. A straight pass
-  through the disk's middle at a brisk pace scores about 1.
+  ``HAZARD_SCALE`` (0.1); 0 outside the disk: a smooth exposure, not a 0/1 hit. A straight pass
+  through the disk's middle at a brisk pace scores about 1–3, so crossing costs about as much as
+  a slow reach.
+* ``water`` — the same depth for the water disk.
 * ``motion`` — squared joint speed ``Σ q̇²`` divided by ``MOTION_SCALE`` (10 (rad/s)²); about 1
   for a brisk reach, 0 when still.
 
-The scales make the three comparable where policies differ, so that reward weights drawn
-uniformly from the all-negative orthant trade them off: cross the lava (short and quick) or go
-around it on either side (longer: more distance and motion), and how fast.
+The scales make the features comparable where policies differ, so that reward weights drawn
+uniformly from the all-negative orthant trade them off: cross the hazard (short and quick) or go
+around it (longer: more distance and motion), and how fast.
 
-Instances randomize the goal (in reach, on the arm's left), the lava disk (radius 8–11 cm,
-centred where a plain joint-space move from the start region's centre to the goal would carry the
-fingertip halfway: in the way of the easy motion, so going around means folding the arm in or
-stretching it out) and the starts: fingertips in a start region on the arm's right (17–33 cm
-from the base), postures from the analytic inverse kinematics with a random tool angle and
-elbow, so from some starts the way inside the lava is short and from others the way outside.
-The evaluation starts and the demonstration pool are drawn apart from the same distribution.
-True weights are drawn uniformly from the all-negative part of the sphere: every feature is a
-cost.
+Instances randomize the goal (in reach, in front of the arm), two start regions on either side of
+it (about 1.5–2 rad away, fingertips 17–33 cm from the base) and the two hazard disks (radius
+8–11 cm): the lava where a plain joint-space move from the right region's centre to the goal would
+carry the fingertip halfway, the water likewise for the left region. From a start on the right the
+lava is in the way and the water out of reach of any sensible motion; from the left, the reverse.
+So a demonstration from one side says how the demonstrator trades reaching and effort against that
+side's hazard, and nothing about the other's: the learner needs demos from both sides. Postures
+come from the analytic inverse kinematics with a random tool angle and elbow, so from some starts
+the way inside the hazard is short and from others the way outside. The evaluation starts
+alternate sides; the demonstration pool's sides are a balanced random order; both are drawn apart
+from the same distribution. True weights are drawn uniformly from the all-negative part of the
+sphere: every feature is a cost.
 """
 
 from __future__ import annotations
@@ -42,12 +47,16 @@ LINK = 0.12
 REACH = 3 * LINK
 #: Joint ranges (rad), as in the MJCF file.
 JOINT_LIMITS = np.array([3.1, 2.6, 2.6])
-FEATURE_NAMES = ("distance", "lava", "motion")
+FEATURE_NAMES = ("distance", "lava", "water", "motion")
+#: Hazard disks, in feature order after ``distance``: the lava on the right, the water on the left.
+HAZARDS = ("lava", "water")
 DISTANCE_SCALE = 0.2
-LAVA_SCALE = 0.3
+HAZARD_SCALE = 0.1
 MOTION_SCALE = 10.0
-#: Range of the lava disk's radius (m).
-LAVA_RADII = (0.08, 0.11)
+#: Starts keep this far from every joint limit (rad): near a limit mink's IK cannot follow most paths.
+START_LIMIT_MARGIN = 0.5
+#: Range of a hazard disk's radius (m).
+HAZARD_RADII = (0.08, 0.11)
 
 
 class LavaReacherParams(BaseModel):
@@ -94,6 +103,16 @@ def inverse_kinematics(tip: np.ndarray, tool_angle: np.ndarray, elbow: np.ndarra
     return np.where(ok[..., None], q, np.nan)
 
 
+def _posture(tip: np.ndarray, tool_angle: float) -> np.ndarray:
+    """A posture with the fingertip at ``tip`` and the tool at ``tool_angle``: elbow +1 if it is
+    in range, else −1."""
+    for elbow in (1.0, -1.0):
+        q = inverse_kinematics(tip, tool_angle, elbow)
+        if np.isfinite(q).all():
+            return q
+    raise RuntimeError(f"lava reacher: no posture reaches {np.round(tip, 3).tolist()}")
+
+
 class LavaReacher(Scene):
     """One lava-reacher instance drawn from ``rng``."""
 
@@ -112,52 +131,83 @@ class LavaReacher(Scene):
                  threads: int | None = None) -> None:
         self.params = params
         self.model = load_model("lava_reacher.xml")
-        # Goal on the arm's left; the start region on its right, about 1.5–2.3 rad away.
-        goal_angle = rng.uniform(1.0, 1.8)
+        # The goal in front of the arm; a start region on each side, 1.5–2 rad away.
+        goal_angle = rng.uniform(-0.25, 0.25)
         self.goal = rng.uniform(0.2, 0.3) * np.array([np.cos(goal_angle), np.sin(goal_angle)])
-        self.start_angle = goal_angle - rng.uniform(1.5, 2.3)
-        # The lava sits where a plain joint-space move from the start region's centre posture to
+        q_goal = _posture(self.goal, goal_angle)
+        #: Centre direction (rad) of the right (lava) and left (water) start regions.
+        self.region_angles = goal_angle + np.array([-1.0, 1.0]) * rng.uniform(1.5, 2.0, 2)
+        # A side's hazard sits where a plain joint-space move from the region's centre posture to
         # the goal posture would carry the fingertip halfway: in the way of the easy motion.
-        region = 0.25 * np.array([np.cos(self.start_angle), np.sin(self.start_angle)])
-        q_from = inverse_kinematics(region, self.start_angle, 1.0)
-        q_to = inverse_kinematics(self.goal, goal_angle, 1.0)
-        if not (np.isfinite(q_from).all() and np.isfinite(q_to).all()):
-            raise RuntimeError("lava reacher: the region centre or goal is out of reach")
-        halfway = fingertip_xy((q_from + q_to) / 2)
-        self.lava_radius = float(rng.uniform(*LAVA_RADII))
-        self.lava_centre = halfway + rng.uniform(-0.02, 0.02, 2)
-        # The goal stays outside the lava with room to stop.
-        away = self.lava_centre - self.goal
-        gap = np.linalg.norm(away) - self.lava_radius
-        if gap < 0.03:
-            self.lava_centre += (0.03 - gap) * away / np.linalg.norm(away)
+        self.hazard_centres = np.empty((2, 2))
+        self.hazard_radii = rng.uniform(*HAZARD_RADII, 2)
+        for side, angle in enumerate(self.region_angles):
+            q_from = _posture(0.25 * np.array([np.cos(angle), np.sin(angle)]), angle)
+            centre = fingertip_xy((q_from + q_goal) / 2) + rng.uniform(-0.02, 0.02, 2)
+            away = centre - self.goal  # the goal stays outside the hazard with room to stop
+            gap = np.linalg.norm(away) - self.hazard_radii[side]
+            if gap < 0.03:
+                centre += (0.03 - gap) * away / np.linalg.norm(away)
+            self.hazard_centres[side] = centre
+            self.model.geom(HAZARDS[side]).pos[:2] = centre
+            self.model.geom(HAZARDS[side]).size[0] = self.hazard_radii[side]
         self.model.site("goal").pos[:2] = self.goal
-        self.model.geom("lava").pos[:2] = self.lava_centre
-        self.model.geom("lava").size[0] = self.lava_radius
         steps = round(params.horizon / self.model.opt.timestep)
         ctrl = self.model.actuator_ctrlrange
         self.spline = ControlSpline(params.knots, steps, ctrl[:, 0], ctrl[:, 1], anchored=True)
-        self.starts = self.sample_starts(rng, params.eval_starts)
-        self.pool_starts = self.sample_starts(rng, params.pool_starts)
+        #: Side of each evaluation start (0 right, 1 left): alternating.
+        self.start_sides = np.arange(params.eval_starts) % 2
+        #: Side of each pool start: a balanced random order.
+        self.pool_sides = rng.permutation(np.arange(params.pool_starts) % 2)
+        self.starts = self.sample_starts(rng, params.eval_starts, self.start_sides)
+        self.pool_starts = self.sample_starts(rng, params.pool_starts, self.pool_sides)
         super().__init__(threads)
 
-    def sample_starts(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        """Fingertips in the start region (radius 0.17–0.33 m, within ±0.5 rad of its centre
-        direction), postures by inverse kinematics with a random tool angle and elbow, at least
-        2 cm outside the lava."""
+    @property
+    def lava_centre(self) -> np.ndarray:
+        """Lava disk centre (x, y) (m)."""
+        return self.hazard_centres[0]
+
+    @property
+    def lava_radius(self) -> float:
+        """Lava disk radius (m)."""
+        return float(self.hazard_radii[0])
+
+    @property
+    def water_centre(self) -> np.ndarray:
+        """Water disk centre (x, y) (m)."""
+        return self.hazard_centres[1]
+
+    @property
+    def water_radius(self) -> float:
+        """Water disk radius (m)."""
+        return float(self.hazard_radii[1])
+
+    def sample_starts(self, rng: np.random.Generator, count: int,
+                      sides: np.ndarray | None = None) -> np.ndarray:
+        """``count`` starts, on ``sides`` (0 right, 1 left; unset: each side at random): a
+        fingertip in its side's region
+        (radius 0.17–0.33 m, within ±0.5 rad of its centre direction), the posture by inverse
+        kinematics with a random tool angle and elbow, at least ``START_LIMIT_MARGIN`` inside the
+        joint ranges (so that the demonstrator's IK can move from it) and 2 cm outside both
+        hazards."""
+        sides = rng.integers(0, 2, count) if sides is None else np.asarray(sides)
         out = np.empty((count, 3))
-        filled = 0
-        while filled < count:
-            n = 8 * count
-            angle = self.start_angle + rng.uniform(-0.5, 0.5, n)
-            tip = rng.uniform(0.17, 0.33, n)[:, None] * np.stack([np.cos(angle), np.sin(angle)], 1)
-            tool = angle + rng.uniform(-1.2, 1.2, n)
-            q = inverse_kinematics(tip, tool, rng.choice([-1.0, 1.0], n))
-            ok = np.isfinite(q).all(axis=1)
-            ok &= np.linalg.norm(tip - self.lava_centre, axis=1) > self.lava_radius + 0.02
-            take = q[ok][: count - filled]
-            out[filled : filled + len(take)] = take
-            filled += len(take)
+        for side in (0, 1):
+            rows = np.flatnonzero(np.asarray(sides) == side)
+            filled = 0
+            while filled < len(rows):
+                n = 8 * len(rows)
+                angle = self.region_angles[side] + rng.uniform(-0.5, 0.5, n)
+                tip = rng.uniform(0.17, 0.33, n)[:, None] * np.stack([np.cos(angle), np.sin(angle)], 1)
+                tool = angle + rng.uniform(-1.2, 1.2, n)
+                q = inverse_kinematics(tip, tool, rng.choice([-1.0, 1.0], n))
+                ok = (np.abs(q) <= JOINT_LIMITS - START_LIMIT_MARGIN).all(axis=1)  # NaN: False
+                for centre, radius in zip(self.hazard_centres, self.hazard_radii, strict=True):
+                    ok &= np.linalg.norm(tip - centre, axis=1) > radius + 0.02
+                take = q[ok][: len(rows) - filled]
+                out[rows[filled : filled + len(take)]] = take
+                filled += len(take)
         return out
 
     def initial_knots(self, start_qpos: np.ndarray) -> np.ndarray:
@@ -172,15 +222,15 @@ class LavaReacher(Scene):
         return rollouts.sensordata[:, :, :2]
 
     def step_features(self, rollouts: Rollouts, horizon: int | None = None) -> np.ndarray:
-        """Each step's distance, lava depth and squared joint speed (module docs), divided by the
-        horizon's steps: their sum over a whole trajectory is the features' mean."""
+        """Each step's distance, lava and water depth and squared joint speed (module docs),
+        divided by the horizon's steps: their sum over a whole trajectory is the features' mean."""
         tip = self.path(rollouts)
         steps = horizon or tip.shape[1]
         distance = np.linalg.norm(tip - self.goal, axis=2) / DISTANCE_SCALE
-        depth = self.lava_radius - np.linalg.norm(tip - self.lava_centre, axis=2)
-        lava = np.clip(depth, 0.0, None) / self.lava_radius / LAVA_SCALE
+        hazards = [np.clip(r - np.linalg.norm(tip - c, axis=2), 0.0, None) / r / HAZARD_SCALE
+                   for c, r in zip(self.hazard_centres, self.hazard_radii, strict=True)]
         motion = (rollouts.qvel**2).sum(axis=2) / MOTION_SCALE
-        return np.stack([distance, lava, motion], axis=2) / steps
+        return np.stack([distance, *hazards, motion], axis=2) / steps
 
     def baseline_knots(self) -> np.ndarray:
         """Hold the start posture (targets = start angles): the do-nothing baseline."""

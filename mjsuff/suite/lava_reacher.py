@@ -30,9 +30,14 @@ class ReacherPhysics(ScenePhysics):
         """Lava centre minus fingertip (x, y)."""
         return self.scene.lava_centre - self.fingertip()
 
+    def to_water(self) -> np.ndarray:
+        """Water centre minus fingertip (x, y)."""
+        return self.scene.water_centre - self.fingertip()
+
 
 class ReacherTask(SceneTask):
-    """Reach the goal around the lava, smoothly; reward ``w·φ_t`` (distance, lava, motion)."""
+    """Reach the goal past the hazards, smoothly; reward ``w·φ_t`` (distance, lava, water,
+    motion)."""
 
     def observe(self, physics: ReacherPhysics) -> OrderedDict[str, np.ndarray]:
         return OrderedDict(
@@ -41,6 +46,8 @@ class ReacherTask(SceneTask):
             to_goal=physics.to_goal(),
             to_lava=physics.to_lava(),
             lava_radius=np.array([physics.scene.lava_radius]),
+            to_water=physics.to_water(),
+            water_radius=np.array([physics.scene.water_radius]),
         )
 
 
