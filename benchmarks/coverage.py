@@ -5,8 +5,9 @@ posterior's most likely point) and the reference quantiles of its nEVD and PIOB 
 sampling (``mjsuff.experiment.coverage``), then one sufficiency check per sampler seed with the
 scenario's sampler settings. Coverage = share of seeds whose nEVD upper bound is ≥ the reference
 α-quantile (PIOB: lower bound ≤ the reference (1−α)-quantile). The same on the lava reacher
-(k = 3) against the exact sphere-grid posterior of its trajectory likelihood, with nEVD's V* from
-the trajectory library (no refinement, so the statistic is one fixed function of w for both).
+(k = 4) against its posterior (the orthant prior and the trajectory likelihood) tabulated on
+400,000 uniform sphere points, with nEVD's V* from the trajectory library (no refinement, so the
+statistic is one fixed function of w for both).
 
     python benchmarks/coverage.py [--worlds 6] [--demos 1 3 10] [--seeds 30] [--reacher-seeds 30]
                                   [--set posterior.KEY=VALUE ...] [--json FILE]
@@ -72,17 +73,22 @@ def reacher_case(demos: int, world_seed: int):
     shown = [domain.demonstrate(s, rng) for s in range(demos)]
     beta = scenario.demos.beta
 
-    def log_likelihood(w):
-        return domain.log_likelihood(w, shown, beta)
+    def log_posterior(w):  # the learner's: its orthant prior and the trajectory likelihood
+        return domain.log_prior(w) + domain.log_likelihood(w, shown, beta)
 
-    reference = grid_reference(log_likelihood)
+    k = domain.num_features
+    reference = grid_reference(log_posterior, 400_000, k=k, rng=np.random.default_rng([world_seed, 2000]))
     policy = domain.plan(reference.map_point())  # joins the library before anything is scored
     stats = Statistics(domain, policy, lambda w: domain.optimal_start_values(w, refine=False))
-    return log_likelihood, 3, reference, stats, scenario
+
+    def initial(rng):
+        return domain.sample_prior(rng, 4 * scenario.sampler().chains)
+
+    return log_posterior, k, reference, stats, initial, scenario
 
 
 def run_cell(label: str, case, config, seeds: list[int], suff, progress, task) -> dict:
-    log_likelihood, k, reference, stats = case
+    log_likelihood, k, reference, stats, *initial = case
     ref_nevd, ref_piob = stats(reference.points)
     q_nevd = reference.quantile(ref_nevd, suff.alpha)
     finite = np.isfinite(ref_piob)
@@ -101,6 +107,7 @@ def run_cell(label: str, case, config, seeds: list[int], suff, progress, task) -
                 suff.alpha,
                 suff.delta,
                 suff.quantile_method,
+                initial[0] if initial else None,
             )
         )
         progress.advance(task)
