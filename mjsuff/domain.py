@@ -86,8 +86,8 @@ class Domain(abc.ABC):
         """
 
     @abc.abstractmethod
-    def pool_regrets(self, weights: np.ndarray, map_weights: np.ndarray) -> np.ndarray:
-        """EVD ``(N, P)`` of the robot's policy for ``map_weights`` at each pool start, per sample
+    def pool_regrets(self, weights: np.ndarray, policy: Policy) -> np.ndarray:
+        """EVD ``(N, P)`` of the robot's ``policy`` (as planned) at each pool start, per sample
         of ``weights`` ``(N, k)``: ``V*_w(p) − V^π_w(p)`` (active selection, paper Eq. 13)."""
 
     @abc.abstractmethod

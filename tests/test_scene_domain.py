@@ -116,7 +116,7 @@ def test_pool_regrets_are_nonnegative_where_the_library_holds_the_plan(case):
     domain, _ = case
     rng = np.random.default_rng(17)
     w = domain.sample_prior(rng, 50)
-    regrets = domain.pool_regrets(w, domain.true_weights)
+    regrets = domain.pool_regrets(w, domain.plan(domain.true_weights))
     assert regrets.shape == (50, 3) and np.all(regrets >= -1e-12)
 
 

@@ -312,9 +312,9 @@ class TabularDomain(Domain):
     def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None) -> np.ndarray:
         return self.cache.optimal_values(weights)
 
-    def pool_regrets(self, weights: np.ndarray, map_weights: np.ndarray) -> np.ndarray:
+    def pool_regrets(self, weights: np.ndarray, policy: np.ndarray) -> np.ndarray:
         weights = np.atleast_2d(weights)
-        mu = self.start_feature_expectations(self.plan(map_weights))
+        mu = self.start_feature_expectations(policy)
         return self.cache.optimal_values(weights)[:, self.pool] - weights @ mu[self.pool].T
 
     def random_start_feature_expectations(self) -> np.ndarray:

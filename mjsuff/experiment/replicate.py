@@ -272,7 +272,7 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
             on_step(step, max_demos)
         if step < max_demos:
             if cfg.selection == "active":
-                pool_evd = domain.pool_regrets(w, post.map_weights)
+                pool_evd = domain.pool_regrets(w, map_policy)
                 next_start = active_choice(pool_evd, asked, suff.alpha, suff.delta,
                                            suff.quantile_method, nevd_ess)
             else:

@@ -53,6 +53,7 @@ import numpy as np
 from pydantic import BaseModel
 from scipy.special import logsumexp
 
+from mjsuff.bounds.regret import normalized_evd
 from mjsuff.domain import Demo, Domain
 from mjsuff.scenes.library import TrajectoryLibrary
 from mjsuff.scenes.planner import SamplingPlanner
@@ -268,17 +269,13 @@ class SceneDomain(Domain):
         for _ in range(self.planning.refine_rounds if refine else 0):
             focus = np.arange(n)
             if robot is not None and n > 1:
-                values = np.stack([self.library.best_value(i, weights) for i in range(s)], axis=1)
-                v_opt = values @ sw
-                nevd = (v_opt - weights @ (sw @ robot)) / np.maximum(v_opt - v_rand, 1e-12)
+                v_opt = self._library_values(weights, range(s)) @ sw
+                nevd = normalized_evd(v_opt, weights @ (sw @ robot), v_rand)
                 count = max(1, int(np.ceil(self.planning.tail_share * n)))
                 focus = np.argsort(-nevd, kind="stable")[:count]
             if not self._refine(weights[focus], range(s)):
                 break
-        out = np.empty((n, s))
-        for start in range(s):
-            out[:, start] = self.library.best_value(start, weights)
-        return out
+        return self._library_values(weights, range(s))
 
     def _refine(self, weights: np.ndarray, starts) -> bool:
         """One refinement round for ``weights`` from ``starts``; False when nothing was new."""
@@ -301,14 +298,17 @@ class SceneDomain(Domain):
         self.refiner.plan(starts_, np.array(groups), self.rng, warm_knots=warm)
         return True
 
-    def pool_regrets(self, weights: np.ndarray, map_weights: np.ndarray) -> np.ndarray:
-        """Per-sample EVD ``(N, P)`` of π for ``map_weights`` at each pool start (Eq. 13's
-        input): the library's best there minus the sample's value of π's trajectory."""
+    def pool_regrets(self, weights: np.ndarray, policy: np.ndarray) -> np.ndarray:
+        """Per-sample EVD ``(N, P)`` of ``policy`` (planned by :meth:`plan`) at each pool start
+        (Eq. 13's input): the library's best there minus the sample's value of the trajectory
+        the same planner makes for the policy's reward from that start."""
         weights = np.atleast_2d(weights)
-        policy = self.plan(map_weights)
-        mu = self.pool_features(policy)
-        best = np.stack([self.library.best_value(int(p), weights) for p in self.pool], axis=1)
-        return best - weights @ mu.T
+        mu = self.pool_features(policy)  # first: planning from the pool joins the library
+        return self._library_values(weights, self.pool) - weights @ mu.T
+
+    def _library_values(self, weights: np.ndarray, starts) -> np.ndarray:
+        """The library's best value ``(N, len(starts))`` under each of ``weights`` ``(N, k)``."""
+        return np.stack([self.library.best_value(int(s), weights) for s in starts], axis=1)
 
     def true_optimal_start_values(self) -> np.ndarray:
         """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once.
@@ -344,7 +344,7 @@ class SceneDomain(Domain):
         """The best value under ``w`` of everything simulated from each evaluation start so far
         ``(S,)`` (the learner's library: plans, refinements, seeds, candidates)."""
         w = np.atleast_2d(np.asarray(w, dtype=float))
-        return np.array([self.library.best_value(s, w)[0] for s in range(len(self.scene.starts))])
+        return self._library_values(w, range(len(self.scene.starts)))[0]
 
     def random_start_feature_expectations(self) -> np.ndarray:
         return self._random_mu
