@@ -155,7 +155,9 @@ def test_ground_truth_scores_planned_and_random_policies(case):
     assert truth.shape == (3,) and np.all(np.isfinite(truth))
     assert truth is domain.true_optimal_start_values()  # computed once
     random_policy = domain.scene.spline.uniform(np.random.default_rng(9), 3)
-    assert domain.policy_optimality(domain.plan(domain.true_weights)) >= 2 / 3
+    # The module's small planner against a truth of three searches at 4x the shipped kinds'
+    # budgets: near-optimal from some start, where a random policy is from none.
+    assert domain.policy_optimality(domain.plan(domain.true_weights)) >= 1 / 3
     assert domain.policy_optimality(random_policy) == 0.0
 
 
@@ -176,6 +178,22 @@ def test_ground_truth_leaves_the_learner_untouched_and_includes_the_expert():
              for s in range(3)]
     scale = truth - domain.random_start_feature_expectations() @ domain.true_weights
     assert np.all(truth >= np.array(shown) - 0.005 * scale)
+
+
+def test_ground_truth_is_not_beaten_by_the_learners_plans_near_w_star():
+    # The truth's searches (wide, broad-step, local; 4 x the budgets) from the library's best:
+    # the learner's own planner, for w* and for rewards within ~10 degrees of it, finds nothing
+    # better from any evaluation start (up to 1% of V* - V_rand: the searches are stochastic).
+    domain = small_domain("lava_reacher", seed=21)
+    truth = domain.true_optimal_start_values()
+    w = domain.true_weights
+    scale = truth - domain.random_start_feature_expectations() @ w
+    rng = np.random.default_rng(22)
+    near = [w] + [w + 0.15 * d for d in random_unit_vectors(rng, 3, len(w))]
+    for v in near:
+        v = -np.abs(v) / np.linalg.norm(v)  # inside the prior's orthant
+        values = domain.start_feature_expectations(domain.plan(v)) @ w
+        assert np.all(values <= truth + 0.01 * scale), (v, values - truth)
 
 
 def test_configure_takes_the_scenarios_tolerances_and_expert(case):

@@ -18,8 +18,10 @@ demonstrator's own family (``Expert.random_params``: any detour, any pace, endin
 (random paths that end at the goal), these are purposeful motions, so ``V* − V_rand`` is on the
 scale of the mistakes a wrong reward causes. (Uniform-random splines would be aimless: their gap is
 so large that any purposeful policy scores a tiny nEVD.) The library is seeded with the expert's
-primitives (its path family fitted to the robot's knots) from every start and with plans of
-``seed_directions`` prior draws, so it holds each mode's optimum before the first demo.
+primitives (its path family fitted to the robot's knots) and the scene's own
+(``Scene.primitive_knots``: the reacher's straight joint-space moves toward goal postures) from
+every start, and with plans of ``seed_directions`` prior draws (a wide search), so it holds each
+mode's optimum before the first demo.
 
 Likelihood (DESIGN, trajectory-level Bayesian IRL). Demo ``j`` from pool start ``s_j`` with
 features ``φ_j`` has ``P(φ_j | w) = exp(β w·φ_j) / Σ_{τ ∈ C_j} exp(β w·φ(τ))`` over a candidate set
@@ -39,8 +41,8 @@ the bound is decided: given the robot's policy, only the samples in the upper ta
 ``tail_share`` largest) are refined, grouped by the library trajectory that is best for them; each
 group is re-planned from that trajectory (warm-started, short budget) for the group's mean
 direction, everything simulated joins the library, and the answer is the library maximum again,
-so it never drops below it. Ground truth plans ``w*`` with a larger budget (on a copy of the
-library), and the replicate raises it to the best of everything it simulated.
+so it never drops below it. Ground truth plans ``w*`` with three searches at larger budgets (on
+a copy of the library), and the replicate raises it to the best of everything it simulated.
 """
 
 from __future__ import annotations
@@ -77,6 +79,8 @@ CANDIDATE_DIRECTIONS = 64
 #: Perturbed copies of a demo's controls per size; sizes as shares of the control range.
 PERTURBATIONS = 16
 PERTURBATION_SIZES = (0.02, 0.05, 0.1, 0.2)
+#: Ground truth's broad CMA-ES step, as a share of the control range.
+TRUTH_SIGMA = 0.2
 
 
 def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
@@ -147,6 +151,11 @@ class SceneDomain(Domain):
         if expert is None:
             raise ValueError("a SceneDomain needs its expert: the random policy is random paths "
                              "of the demonstrator's family (build it with make_scene_domain)")
+        for i in everywhere:  # the scene's own reward-agnostic primitives
+            knots = scene.primitive_knots(scene.all_starts[i])
+            if len(knots):
+                _, feats = scene.simulate(scene.all_starts[i][None], knots)
+                self.library.add(int(i), feats, knots)
         for i in everywhere:  # the demonstrator's path family, where it is in the robot's class
             done, _ = expert.execute(scene.all_starts[i], expert.primitives(scene.all_starts[i]))
             if done.knots is not None and len(done.knots):
@@ -314,23 +323,30 @@ class SceneDomain(Domain):
         """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once.
 
         On a *copy* of the library, with randomness of its own (nothing of ``w*`` reaches the
-        learner's library, warm starts or refinement record): ``w*`` planned from every start
-        with ``truth_scale`` times the planner's population and refined, and, when there is an
-        expert, its best demo from every evaluation start (a demonstrator that is never asked
-        there in the run). The library maximum under ``w*`` then. The replicate raises it to
-        anything better it simulates later (``best_simulated_start_values``).
+        learner's library, warm starts or refinement record): ``w*`` planned from every start by
+        three searches, each from the best found so far and with ``truth_scale`` × its budget
+        (the seed planner's wide one, the planner's CMA-ES with a broad step, the planner
+        itself), and, when there is an expert, its best demo from every evaluation start (a
+        demonstrator that is never asked there in the run). The library maximum under ``w*``
+        then. The replicate raises it to anything better it simulates later
+        (``best_simulated_start_values``).
         """
         if self._truth is None:
             rng = np.random.default_rng(self._truth_seed)
             library = copy.deepcopy(self.library)
             starts = np.arange(len(self.scene.starts))
             w = np.tile(self.true_weights, (len(starts), 1))
-            warm = np.stack([library.arrays(s)[1][library.best(s, w[:1])[1][0]] for s in starts])
             scale = self.planning.truth_scale
-            plans = SamplingPlanner(self.scene, self.planner.config.stronger(scale),
-                                    library).plan(starts, w, rng, warm_knots=warm)
-            SamplingPlanner(self.scene, self.refiner.config.stronger(scale),
-                            library).plan(starts, w, rng, warm_knots=plans.knots)
+            # Searches of growing locality, each from the best found so far, each truth_scale ×
+            # its budget: the seed plans' wide search; the planner's CMA-ES with a broad first
+            # step (TRUTH_SIGMA: it reaches basins next to the library's best that the
+            # planner's own step does not); the planner itself.
+            wide = self.planning.seed_planner or self.scene.seed_config
+            broad = self.planner.config.model_copy(
+                update={"cma_sigma": max(TRUTH_SIGMA, self.planner.config.cma_sigma)})
+            for search in (wide, broad, self.planner.config):
+                SamplingPlanner(self.scene, search.stronger(scale), library).plan(
+                    starts, w, rng, warm_knots=self._library_warm(library, starts, w))
             if self.expert is not None:
                 best = type(self.expert)(self.scene, self.expert.settings.model_copy(
                     update={"rationality": None}))
@@ -339,6 +355,12 @@ class SceneDomain(Domain):
                     library.add_features(int(s), demo.features)
             self._truth = np.array([library.best_value(int(s), w[:1])[0] for s in starts])
         return self._truth
+
+    @staticmethod
+    def _library_warm(library: TrajectoryLibrary, starts: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The library's best knots ``(B, K, nu)`` from each of ``starts`` under ``w`` ``(B, k)``."""
+        return np.stack([library.arrays(int(s))[1][library.best(int(s), w[j][None])[1][0]]
+                         for j, s in enumerate(starts)])
 
     def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:
         """The best value under ``w`` of everything simulated from each evaluation start so far

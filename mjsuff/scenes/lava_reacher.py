@@ -57,6 +57,11 @@ MOTION_SCALE = 10.0
 START_LIMIT_MARGIN = 0.5
 #: Range of a hazard disk's radius (m).
 HAZARD_RADII = (0.08, 0.11)
+#: Joint-space primitives (``LavaReacher.primitive_knots``): goal postures' tool angles and the
+#: shares of the move; the paces are the move done by knot ``j`` of ``K``: all at the first knot,
+#: by the middle (``min(1, 2j/K)``), evenly (``j/K``).
+PRIMITIVE_TOOL_ANGLES = 12
+PRIMITIVE_REACH = (0.25, 0.5, 0.75, 1.0)
 
 
 class LavaReacherParams(BaseModel):
@@ -118,21 +123,23 @@ class LavaReacher(Scene):
 
     feature_names = FEATURE_NAMES
     path_axes = (0, 1)  # the fingertip moves in the world x-y plane
-    # CMA-ES from the library's best trajectory for the reward: the library (the demonstrator's
-    # path family through mink IK from every start, the seed plans, every plan since) already
-    # holds each way around the lava, so the search is local (tests/test_planner.py).
+    # π and V* refinement: CMA-ES from the library's best trajectory for the reward (the
+    # demonstrator's path family, the seed plans, every plan since), a local search. The seed
+    # plans need the global search: from a left start the way around the water is a narrow basin
+    # that a local search from holding still or from a way through never reaches, so they are a wide
+    # CEM (benchmarks/tail_vstar.py).
     planner_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=40,
                                    cma_sigma=0.05)
-    refine_config = PlannerConfig(iterations=0, cma_population=16, cma_iterations=12,
+    refine_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=24,
                                   cma_sigma=0.05)
-    seed_config = PlannerConfig(iterations=0, cma_population=16, cma_iterations=16, cma_sigma=0.05)
+    seed_config = PlannerConfig(population=48, elites=6, iterations=10, initial_std=0.5)
 
     def __init__(self, params: LavaReacherParams, rng: np.random.Generator,
                  threads: int | None = None) -> None:
         self.params = params
         self.model = load_model("lava_reacher.xml")
         # The goal in front of the arm; a start region on each side, 1.5–2 rad away.
-        goal_angle = rng.uniform(-0.25, 0.25)
+        goal_angle = self.goal_angle = rng.uniform(-0.25, 0.25)
         self.goal = rng.uniform(0.2, 0.3) * np.array([np.cos(goal_angle), np.sin(goal_angle)])
         q_goal = _posture(self.goal, goal_angle)
         #: Centre direction (rad) of the right (lava) and left (water) start regions.
@@ -213,6 +220,24 @@ class LavaReacher(Scene):
     def initial_knots(self, start_qpos: np.ndarray) -> np.ndarray:
         """Search starts from holding the start pose."""
         return np.repeat(start_qpos[:, None, :], self.spline.num_knots, axis=1)
+
+    def primitive_knots(self, start_qpos: np.ndarray) -> np.ndarray:
+        """Straight joint-space moves from ``start_qpos`` toward every goal posture: the
+        analytic IK's postures at the goal for ``PRIMITIVE_TOOL_ANGLES`` tool angles and both
+        elbows, a share ``PRIMITIVE_REACH`` of the way, at three paces (module constants).
+        Cheap and reward-agnostic, they hold motions that a local search from holding still or
+        from the demonstrator's Cartesian paths rarely finds (unfolding or refolding the arm,
+        stopping part-way when motion is dear)."""
+        tools = self.goal_angle + np.linspace(-np.pi, np.pi, PRIMITIVE_TOOL_ANGLES, endpoint=False)
+        postures = inverse_kinematics(self.goal, tools[:, None], np.array([1.0, -1.0]))
+        postures = postures.reshape(-1, 3)
+        postures = postures[np.isfinite(postures).all(axis=1)]
+        move = postures - start_qpos  # (G, 3)
+        j = np.arange(1, self.spline.num_knots + 1) / self.spline.num_knots
+        paces = np.stack([np.ones_like(j), np.minimum(1.0, 2 * j), j])  # (3, K)
+        share = np.asarray(PRIMITIVE_REACH)[:, None, None] * paces[None]  # (R, 3, K)
+        knots = start_qpos + share[None, :, :, :, None] * move[:, None, None, None, :]
+        return self.spline.clip(knots.reshape(-1, self.spline.num_knots, 3))
 
     def anchor(self, start_qpos: np.ndarray) -> np.ndarray:
         """The servos start targeting the start pose: motion begins smoothly."""

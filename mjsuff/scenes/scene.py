@@ -116,6 +116,12 @@ class Scene(abc.ABC):
         centre = (self.spline.low + self.spline.high) / 2
         return np.broadcast_to(centre, (len(start_qpos), *self.spline.shape)).copy()
 
+    def primitive_knots(self, start_qpos: np.ndarray) -> np.ndarray:
+        """A reward-agnostic family of knots ``(M, K, nu)`` from one start ``(nq,)``, simulated
+        into every start's trajectory library when an instance is built (the basins a planner's
+        search could miss); default: none."""
+        return np.empty((0, *self.spline.shape))
+
     def anchor(self, start_qpos: np.ndarray) -> np.ndarray:
         """The control at t = 0 from starts ``(B, nq)`` (anchored splines only)."""
         raise NotImplementedError(f"{type(self).__name__} does not anchor its controls")
