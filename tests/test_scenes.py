@@ -151,3 +151,27 @@ def test_lander_saves_fuel_and_lands_harder_when_fuel_is_costly():
     lavish = plan_features(scene, [-0.3, -0.9, -0.02, -0.2])
     assert frugal[:, 2].mean() < lavish[:, 2].mean()  # less fuel
     assert frugal[:, 1].mean() > lavish[:, 1].mean()  # harder touchdown
+
+
+def test_reacher_primitives_move_in_joint_space_toward_goal_postures():
+    # Scene.primitive_knots: straight joint-space moves toward the analytic IK's goal postures.
+    # The whole moves that are done before the last knot end with the fingertip at the goal
+    # (stiff servos: within 1 cm by the end of the horizon); nothing leaves the control range.
+    scene = make("lava_reacher", seed=5)
+    start = scene.starts[0]
+    knots = scene.primitive_knots(start)
+    assert knots.shape[1:] == scene.spline.shape and len(knots) >= 4 * 3 * 2
+    assert np.all(knots >= scene.spline.low) and np.all(knots <= scene.spline.high)
+    rollouts, features = scene.simulate(start[None], knots)
+    assert np.isfinite(features).all()
+    # Every knot lies on the straight joint-space line from the start through the final knot.
+    move = knots[:, -1] - start
+    for k, m in zip(knots, move, strict=True):
+        share = (k - start) @ m / max(m @ m, 1e-12)
+        assert np.allclose(k, start + share[:, None] * m, atol=1e-9)
+    whole = np.array([np.allclose(fingertip_xy(k[-1]), scene.goal, atol=1e-6) for k in knots])
+    assert whole.sum() >= 3  # at least one goal posture, at every pace
+    reach = np.linalg.norm(rollouts.sensordata[:, -1, :2] - scene.goal, axis=1)
+    done_early = whole & np.array([np.allclose(k[-2], k[-1]) for k in knots])
+    assert done_early.sum() >= 2  # the fast and the mid-way pace
+    assert np.all(reach[done_early] < 0.01), reach[done_early]
