@@ -184,8 +184,7 @@ class SceneDomain(Domain):
         directions = sample_orthant(rng, planning.seed_directions, k)
         problems = np.repeat(everywhere, len(directions))
         tiled = np.tile(directions, (s + p, 1))
-        warm = np.stack([self.library.arrays(int(i))[1][self.library.best(int(i), d[None])[1][0]]
-                         for i, d in zip(problems, tiled, strict=True)])
+        warm = self._library_warm(self.library, problems, tiled)
         seeds = SamplingPlanner(scene, planning.seed_planner or scene.seed_config, self.library).plan(
             problems, tiled, rng, warm_knots=warm)
         if not np.isfinite(seeds.features).all():
@@ -237,11 +236,7 @@ class SceneDomain(Domain):
     def _plan(self, planner: SamplingPlanner, w: np.ndarray, starts: np.ndarray) -> np.ndarray:
         """Knots planned for ``w`` from library starts ``starts``, warm-started from the library."""
         weights = np.broadcast_to(np.asarray(w, dtype=float), (len(starts), self.num_features))
-        best = [self.library.best(int(s), weights[:1])[1][0] for s in starts]
-        if min(best) < 0:
-            raise RuntimeError(f"no valid trajectory from start {int(starts[best.index(-1)])} "
-                               "to warm-start from (every rollout diverged)")
-        warm = np.stack([self.library.arrays(int(s))[1][j] for s, j in zip(starts, best, strict=True)])
+        warm = self._library_warm(self.library, starts, weights)
         return planner.plan(starts, weights, self.rng, warm_knots=warm).knots
 
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
@@ -358,9 +353,13 @@ class SceneDomain(Domain):
 
     @staticmethod
     def _library_warm(library: TrajectoryLibrary, starts: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """The library's best knots ``(B, K, nu)`` from each of ``starts`` under ``w`` ``(B, k)``."""
-        return np.stack([library.arrays(int(s))[1][library.best(int(s), w[j][None])[1][0]]
-                         for j, s in enumerate(starts)])
+        """The library's best knots ``(B, K, nu)`` from each of ``starts`` under ``w`` ``(B, k)``:
+        the warm starts of every search."""
+        best = [int(library.best(int(s), w[j][None])[1][0]) for j, s in enumerate(starts)]
+        if min(best) < 0:
+            raise RuntimeError(f"no valid trajectory from start {int(starts[best.index(-1)])} "
+                               "to warm-start from (every rollout diverged)")
+        return np.stack([library.arrays(int(s))[1][j] for s, j in zip(starts, best, strict=True)])
 
     def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:
         """The best value under ``w`` of everything simulated from each evaluation start so far
