@@ -120,6 +120,23 @@ def test_pool_regrets_are_nonnegative_where_the_library_holds_the_plan(case):
     assert regrets.shape == (50, 3) and np.all(regrets >= -1e-12)
 
 
+def test_pool_plans_are_made_only_for_the_entries_asked(case):
+    """A held-out demo is matched from its own start alone: the policy is planned from that pool
+    entry (once), not from the whole pool; asking for all fills in the rest, keeping the first."""
+    domain, _ = case
+    policy = domain.plan(domain.sample_prior(np.random.default_rng(21), 1)[0])
+    steps = domain.scene.simulator.steps_simulated
+    one = domain.pool_features(policy, [1]).copy()
+    assert np.isfinite(one[1]).all() and np.isnan(np.delete(one, 1, axis=0)).all()
+    assert domain.scene.simulator.steps_simulated > steps
+    steps = domain.scene.simulator.steps_simulated
+    np.testing.assert_array_equal(domain.pool_features(policy, [1]), one)  # cached: no planning
+    assert domain.scene.simulator.steps_simulated == steps
+    every = domain.pool_features(policy)
+    assert np.isfinite(every).all()
+    np.testing.assert_array_equal(every[1], one[1])
+
+
 def test_optimal_values_never_fall_below_a_planned_policy(case):
     """nEVD ≥ 0 for every sample: V* includes π_MAP's own trajectories."""
     domain, _ = case

@@ -196,7 +196,7 @@ class SceneDomain(Domain):
         self._candidates: dict[bytes, np.ndarray] = {}
         self._features: dict[bytes, np.ndarray] = {}
         self._planned_for: dict[bytes, np.ndarray] = {}
-        self._pool_plans: dict[bytes, np.ndarray] = {}
+        self._pool_plans: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._truth: np.ndarray | None = None
         # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
         self._truth_seed = int(rng.integers(2**63))
@@ -246,16 +246,25 @@ class SceneDomain(Domain):
             self._features[key] = features
         return self._features[key]
 
-    def pool_features(self, policy: np.ndarray) -> np.ndarray:
+    def pool_features(self, policy: np.ndarray, entries: np.ndarray | None = None) -> np.ndarray:
         """Features ``(P, k)`` of the policy's trajectories from the demonstration pool: the same
-        planner for the reward the policy was planned for, from each pool start (cached)."""
+        planner for the reward the policy was planned for, from each pool start. Only the pool
+        entries in ``entries`` (default: all) are planned, each once per policy (cached); rows of
+        entries not yet planned are NaN."""
         key = self.policy_key(policy)
+        if key not in self._planned_for:
+            raise ValueError("pool_features: the policy was not planned by this domain")
         if key not in self._pool_plans:
-            if key not in self._planned_for:
-                raise ValueError("pool_features: the policy was not planned by this domain")
-            knots = self._plan(self.planner, self._planned_for[key], self.pool)
-            _, self._pool_plans[key] = self.scene.simulate(self.scene.pool_starts, knots)
-        return self._pool_plans[key]
+            self._pool_plans[key] = (np.full((len(self.pool), self.num_features), np.nan),
+                                     np.zeros(len(self.pool), dtype=bool))
+        features, planned = self._pool_plans[key]
+        wanted = np.arange(len(self.pool)) if entries is None else np.asarray(entries, dtype=int)
+        todo = np.unique(wanted[~planned[wanted]])
+        if len(todo):
+            knots = self._plan(self.planner, self._planned_for[key], self.pool[todo])
+            _, features[todo] = self.scene.simulate(self.scene.pool_starts[todo], knots)
+            planned[todo] = True
+        return features
 
     def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None,
                              refine: bool = True) -> np.ndarray:
@@ -382,7 +391,7 @@ class SceneDomain(Domain):
     def agrees_with_demo(self, policy: np.ndarray, demo: Demo) -> bool:
         """Matches: the policy's trajectory from the demo's (pool) start has features within
         ``match_tolerance`` of the demo's."""
-        mine = self.pool_features(policy)[demo.start]
+        mine = self.pool_features(policy, [demo.start])[demo.start]
         return bool(np.all(np.abs(mine - demo.data["features"]) <= self.match_tolerance))
 
     def policy_optimality(self, policy: np.ndarray, best: np.ndarray | None = None) -> float:
