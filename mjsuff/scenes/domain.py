@@ -40,8 +40,12 @@ trajectories, demos), a lower bound on ``V*`` that costs one matrix product, the
 the bound is decided: given the robot's policy, only the samples in the upper tail of nEVD (the
 ``tail_share`` largest) are refined, grouped by the library trajectory that is best for them; each
 group is re-planned from that trajectory (warm-started, short budget) for the group's mean
-direction, everything simulated joins the library, and the answer is the library maximum again,
-so it never drops below it. Ground truth plans ``w*`` with three searches at larger budgets (on
+direction, everything simulated joins the library; then, for every tail sample from every
+evaluation start, a local quadratic model of the value around the library's best proposes where
+the sample's own optimum is (``mjsuff.scenes.surrogate``: a few simulated rollouts per sample, in
+``polish_rounds`` rounds, the tail re-ranked each round). The answer is the library maximum
+again, so it never drops below it. Plans (π for a reward) are polished the same way for their
+reward, and so is ground truth for ``w*``. Ground truth plans ``w*`` with three searches at larger budgets (on
 a copy of the library), and the replicate raises it to the best of everything it simulated.
 """
 
@@ -61,6 +65,7 @@ from mjsuff.scenes.library import TrajectoryLibrary
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
+from mjsuff.scenes.surrogate import polish
 from mjsuff.sphere import normalize, random_unit_vectors
 
 if TYPE_CHECKING:
@@ -237,7 +242,19 @@ class SceneDomain(Domain):
         """Knots planned for ``w`` from library starts ``starts``, warm-started from the library."""
         weights = np.broadcast_to(np.asarray(w, dtype=float), (len(starts), self.num_features))
         warm = self._library_warm(self.library, starts, weights)
-        return planner.plan(starts, weights, self.rng, warm_knots=warm).knots
+        plans = planner.plan(starts, weights, self.rng, warm_knots=warm).knots
+        if not self.planning.polish_rounds:
+            return plans
+        self._polish(self.library, starts, weights, self.planning.polish_rounds)
+        return self._library_warm(self.library, starts, weights)  # the plan, or better
+
+    def _polish(self, library: TrajectoryLibrary, starts: np.ndarray, weights: np.ndarray,
+                rounds: int) -> None:
+        """``rounds`` rounds of the local quadratic model's proposals (``mjsuff.scenes.surrogate``)
+        for problems ``(starts[j], weights[j])``, into ``library``."""
+        for _ in range(rounds):
+            polish(self.scene, library, np.asarray(starts), np.asarray(weights),
+                   self.planning.polish_neighbours)
 
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
         key = self.policy_key(policy)
@@ -276,19 +293,26 @@ class SceneDomain(Domain):
             refine: False returns the library's best alone.
         """
         weights = np.atleast_2d(weights)
-        n, s = len(weights), len(self.scene.starts)
-        sw = self.start_weights
-        v_rand = weights @ (sw @ self._random_mu)
+        s = len(self.scene.starts)
         for _ in range(self.planning.refine_rounds if refine else 0):
-            focus = np.arange(n)
-            if robot is not None and n > 1:
-                v_opt = self._library_values(weights, range(s)) @ sw
-                nevd = normalized_evd(v_opt, weights @ (sw @ robot), v_rand)
-                count = max(1, int(np.ceil(self.planning.tail_share * n)))
-                focus = np.argsort(-nevd, kind="stable")[:count]
-            if not self._refine(weights[focus], range(s)):
+            if not self._refine(weights[self._tail(weights, robot)], range(s)):
                 break
+        for _ in range(self.planning.polish_rounds if refine else 0):
+            focus = weights[self._tail(weights, robot)]
+            self._polish(self.library, np.repeat(np.arange(s), len(focus)), np.tile(focus, (s, 1)), 1)
         return self._library_values(weights, range(s))
+
+    def _tail(self, weights: np.ndarray, robot: np.ndarray | None) -> np.ndarray:
+        """Indices of the samples in the upper ``tail_share`` of nEVD against the robot's feature
+        expectations ``robot`` by the library's values now (all samples without a robot)."""
+        n = len(weights)
+        if robot is None or n == 1:
+            return np.arange(n)
+        sw = self.start_weights
+        v_opt = self._library_values(weights, range(len(self.scene.starts))) @ sw
+        nevd = normalized_evd(v_opt, weights @ (sw @ robot), weights @ (sw @ self._random_mu))
+        count = max(1, int(np.ceil(self.planning.tail_share * n)))
+        return np.argsort(-nevd, kind="stable")[:count]
 
     def _refine(self, weights: np.ndarray, starts) -> bool:
         """One refinement round for ``weights`` from ``starts``; False when nothing was new."""
@@ -351,6 +375,7 @@ class SceneDomain(Domain):
             for search in (wide, broad, self.planner.config):
                 SamplingPlanner(self.scene, search.stronger(scale), library).plan(
                     starts, w, rng, warm_knots=self._library_warm(library, starts, w))
+            self._polish(library, starts, w, round(scale * self.planning.polish_rounds))
             if self.expert is not None:
                 best = type(self.expert)(self.scene, self.expert.settings.model_copy(
                     update={"rationality": None}))

@@ -27,6 +27,13 @@ class PlanningSettings(BaseModel):
         0.15, gt=0.0, le=1.0,
         description="V*: the share of samples with the largest nEVD whose V* is refined (the "
                     "upper tail decides the bound)")
+    polish_rounds: int = Field(
+        2, ge=0, description="V*: rounds of the local quadratic model's proposals for the nEVD "
+                             "tail's samples from every evaluation start, after refinement "
+                             "(mjsuff.scenes.surrogate)")
+    polish_neighbours: int = Field(
+        160, ge=60, description="library entries each of those models is fitted to (a quadratic "
+                                "in the knots has 1 + n + n(n+1)/2 coefficients: 55 for 9 knots)")
     revisit_cosine: float = Field(
         0.999, gt=0.0, le=1.0,
         description="a group within this cosine of a direction already refined from the same "
