@@ -43,9 +43,12 @@ def test_trust_region_step_is_the_constrained_maximizer():
         def loss(x, g=g, h=h):
             return -(g @ x + 0.5 * x @ h @ x)
 
-        best = min(minimize(loss, x0, method="SLSQP",
-                            constraints=[{"type": "ineq", "fun": lambda x: 1.0 - x @ x}]).fun
-                   for x0 in rng.standard_normal((8, n)) * 0.3)
+        best = min(
+            minimize(
+                loss, x0, method="SLSQP", constraints=[{"type": "ineq", "fun": lambda x: 1.0 - x @ x}]
+            ).fun
+            for x0 in rng.standard_normal((8, n)) * 0.3
+        )
         assert -loss(d) >= -best - 1e-4 * (1.0 + abs(best))
 
 

@@ -87,8 +87,9 @@ def propose(units: np.ndarray, values: np.ndarray, neighbours: int) -> np.ndarra
         return np.empty((b, 0, n))
     centre = units[values.argmax(axis=1)]  # (B, n)
     # ‖u − c‖² without the (B, L, n) differences (the library holds tens of thousands of entries)
-    d2 = np.maximum((units**2).sum(axis=1)[None] - 2.0 * centre @ units.T
-                    + (centre**2).sum(axis=1)[:, None], 0.0)  # (B, L)
+    d2 = np.maximum(
+        (units**2).sum(axis=1)[None] - 2.0 * centre @ units.T + (centre**2).sum(axis=1)[:, None], 0.0
+    )  # (B, L)
     near = np.argpartition(d2, m - 1, axis=1)[:, :m]
     radius = np.sqrt(np.take_along_axis(d2, near, axis=1).max(axis=1))  # (B,)
     ok = radius > 0
@@ -105,8 +106,9 @@ def propose(units: np.ndarray, values: np.ndarray, neighbours: int) -> np.ndarra
     return np.clip(centre[:, None] + shares * step[:, None], 0.0, 1.0)[ok]
 
 
-def polish(scene: Scene, library: TrajectoryLibrary, starts: np.ndarray, weights: np.ndarray,
-           neighbours: int) -> int:
+def polish(
+    scene: Scene, library: TrajectoryLibrary, starts: np.ndarray, weights: np.ndarray, neighbours: int
+) -> int:
     """One round: for each of ``starts`` ``(B,)`` (library starts) and reward vectors ``weights``
     ``(B, k)``, fit the model around the library's best, simulate its proposals and add them to
     the library. Returns the rollouts simulated."""

@@ -1,0 +1,159 @@
+"""The README's evidence tables for a run, with 95% bootstrap CIs over replicates (issue #17).
+
+    python benchmarks/evidence_tables.py RUN_DIR [--paired OTHER_RUN_DIR] [--epsilon 0.2]
+
+Printed as markdown: π_MAP's true nEVD by demos (Figure 2's curve: mean, CI, median; the bound's
+mean and how often it is at least the truth); every rule's F1 and demos needed (the baselines at
+``--epsilon``) with CIs and the bound rules' accuracy at their stop; how often the end-of-replicate
+truth was raised. With ``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR,
+replicate by replicate (the same instances when both runs share the seed), with a CI.
+
+One observation per replicate: the bootstrap resamples replicates, never steps.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mjsuff.experiment.measures import evaluated_rows, measure_group
+
+BOOTSTRAP = 2000
+RULE_NAMES = {
+    "nevd": "nEVD bound",
+    "piob": "PIOB bound",
+    "patience": "convergence (patience {p})",
+    "validation": "validation set (interval {p})",
+}
+
+
+def load(run: Path) -> pd.DataFrame:
+    return pd.read_parquet(run / "steps.parquet")
+
+
+def ci(values: np.ndarray, stat=np.mean, rng: np.random.Generator | None = None) -> tuple[float, float]:
+    """95% percentile-bootstrap CI of ``stat`` over the rows of ``values``."""
+    rng = rng or np.random.default_rng(0)
+    idx = rng.integers(0, len(values), (BOOTSTRAP, len(values)))
+    boot = np.array([stat(values[i]) for i in idx])
+    boot = boot[np.isfinite(boot)]
+    return float(np.quantile(boot, 0.025)), float(np.quantile(boot, 0.975))
+
+
+def curve(steps: pd.DataFrame) -> str:
+    nevd = steps[steps["rule"] == "nevd"]
+    first = nevd[nevd["param"] == nevd["param"].min()]
+    lines = {"mean": [], "ci": [], "median": [], "bound": [], "covered": []}
+    demos = sorted(first["step"].unique())
+    for step in demos:
+        g = first[first["step"] == step].sort_values("replicate")
+        truth = g["true_nevd"].to_numpy(float)
+        low, high = ci(truth)
+        lines["mean"].append(f"{truth.mean():.3f}")
+        lines["ci"].append(f"{low:.2f}–{high:.2f}")
+        lines["median"].append(f"{np.median(truth):.3f}")
+        lines["bound"].append(f"{g['bound'].mean():.3f}")
+        lines["covered"].append(f"{(g['bound'] >= g['true_nevd']).mean():.2f}")
+    covered = (first["bound"] >= first["true_nevd"]).to_numpy()
+    head = "| demos | " + " | ".join(str(d) for d in demos) + " |\n"
+    head += "| --- |" + " --- |" * len(demos) + "\n"
+    names = {
+        "mean": "true nEVD of π_MAP, mean",
+        "ci": "… 95% CI",
+        "median": "… median",
+        "bound": "nEVD bound, mean",
+        "covered": "bound ≥ true nEVD",
+    }
+    body = "".join(f"| {names[k]} | " + " | ".join(v) + " |\n" for k, v in lines.items())
+    return (
+        head + body + f"\nBound ≥ true nEVD in {covered.sum()} of {covered.size} checks "
+        f"({covered.mean():.2f}).\n"
+    )
+
+
+def rule_rows(steps: pd.DataFrame, epsilon: float) -> list[tuple[str, float, pd.DataFrame, bool]]:
+    out = []
+    for (rule, param), group in steps.groupby(["rule", "param"], sort=False):
+        label = RULE_NAMES[rule].format(p=int(param))
+        if rule == "nevd":
+            out.append((label, float(param), group, False))
+        elif rule == "piob":
+            out.append((label, float(param), group, True))
+        else:
+            out.append((label, epsilon, group, False))
+    return out
+
+
+def rules(steps: pd.DataFrame, epsilon: float) -> str:
+    text = "| rule | ε | F1 | demos needed | bound accuracy |\n| --- | --- | --- | --- | --- |\n"
+    for label, eps, group, improvement in rule_rows(steps, epsilon):
+        reps = np.array(sorted(group["replicate"].unique()))
+        by_rep = {r: g for r, g in group.groupby("replicate")}
+        m = measure_group(group, improvement, eps)
+
+        def f1_of(sample, by_rep=by_rep, improvement=improvement, eps=eps):
+            frame = pd.concat([by_rep[r].assign(replicate=i) for i, r in enumerate(sample)])
+            return measure_group(frame, improvement, eps)["f1"]
+
+        f_low, f_high = ci(reps, f1_of)
+        needed = evaluated_rows(group)["step"].to_numpy(float)
+        d_low, d_high = ci(needed)
+        acc = "–" if np.isnan(m["accuracy"]) else f"{m['accuracy']:.2f}"
+        text += (
+            f"| {label} | {eps:g} | {m['f1']:.2f} ({f_low:.2f}–{f_high:.2f}) | "
+            f"{m['demos_needed']:.1f} ({d_low:.1f}–{d_high:.1f}) | {acc} |\n"
+        )
+    return text
+
+
+def truth_raised(steps: pd.DataFrame) -> str:
+    per_rep = steps.groupby("replicate")[["truth_raised_starts", "truth_raise"]].max()
+    raised = per_rep[per_rep["truth_raised_starts"] > 0]
+    if raised.empty:
+        return f"Truth raised at the end of 0 of {len(per_rep)} replicates.\n"
+    return (
+        f"Truth raised at the end of {len(raised)} of {len(per_rep)} replicates "
+        f"(by {raised['truth_raise'].min():.3f}–{raised['truth_raise'].max():.3f} of "
+        f"V* − V_rand; {int(raised['truth_raised_starts'].sum())} evaluation starts in all).\n"
+    )
+
+
+def paired(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
+    text = (
+        "| rule | ε | demos needed, this − other (mean, 95% CI) | replicates |\n| --- | --- | --- | --- |\n"
+    )
+    theirs = {(label, eps): g for label, eps, g, _ in rule_rows(other, epsilon)}
+    for label, eps, group, _ in rule_rows(steps, epsilon):
+        if (label, eps) not in theirs:
+            continue
+        a = evaluated_rows(group).set_index("replicate")["step"]
+        b = evaluated_rows(theirs[label, eps]).set_index("replicate")["step"]
+        both = a.index.intersection(b.index)
+        diff = (a[both] - b[both]).to_numpy(float)
+        low, high = ci(diff)
+        text += f"| {label} | {eps:g} | {diff.mean():+.2f} ({low:+.2f} to {high:+.2f}) | {len(both)} |\n"
+    return text
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("run", type=Path)
+    parser.add_argument("--paired", type=Path)
+    parser.add_argument(
+        "--epsilon", type=float, default=0.2, help="the ε the baselines are scored at (default 0.2)"
+    )
+    args = parser.parse_args()
+    steps = load(args.run)
+    print(f"{args.run}: {steps['replicate'].nunique()} replicates\n")
+    print(curve(steps))
+    print(rules(steps, args.epsilon))
+    print(truth_raised(steps))
+    if args.paired:
+        print(paired(steps, load(args.paired), args.epsilon))
+
+
+if __name__ == "__main__":
+    main()
