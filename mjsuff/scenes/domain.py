@@ -45,8 +45,8 @@ evaluation start, a local quadratic model of the value around the library's best
 the sample's own optimum is (``mjsuff.scenes.surrogate``: a few simulated rollouts per sample, in
 ``polish_rounds`` rounds, the tail re-ranked each round). The answer is the library maximum
 again, so it never drops below it. Plans (π for a reward) are polished the same way for their
-reward, and so is ground truth for ``w*``. Ground truth plans ``w*`` with three searches at larger budgets (on
-a copy of the library), and the replicate raises it to the best of everything it simulated.
+reward. Ground truth plans ``w*`` with three searches at larger budgets, each polished (on a copy
+of the library), and the replicate raises it to the best of everything it simulated.
 """
 
 from __future__ import annotations
