@@ -31,7 +31,10 @@ RULE_NAMES = {
 
 
 def load(run: Path) -> pd.DataFrame:
-    return pd.read_parquet(run / "steps.parquet")
+    """A run's steps.parquet, or its finished replicates' parts while it is still running."""
+    if (run / "steps.parquet").is_file():
+        return pd.read_parquet(run / "steps.parquet")
+    return pd.concat([pd.read_parquet(p) for p in sorted((run / "replicates").glob("*.parquet"))])
 
 
 def ci(values: np.ndarray, stat=np.mean, rng: np.random.Generator | None = None) -> tuple[float, float]:
@@ -40,6 +43,8 @@ def ci(values: np.ndarray, stat=np.mean, rng: np.random.Generator | None = None)
     idx = rng.integers(0, len(values), (BOOTSTRAP, len(values)))
     boot = np.array([stat(values[i]) for i in idx])
     boot = boot[np.isfinite(boot)]
+    if not boot.size:
+        return float("nan"), float("nan")
     return float(np.quantile(boot, 0.025)), float(np.quantile(boot, 0.975))
 
 

@@ -86,6 +86,14 @@ PERTURBATIONS = 16
 PERTURBATION_SIZES = (0.02, 0.05, 0.1, 0.2)
 #: Ground truth's broad CMA-ES step, as a share of the control range.
 TRUTH_SIGMA = 0.2
+#: Ground truth's rounds of the local quadratic model after each search, at most: until a round
+#: improves no start (the learner polishes plans near w* at every step, so the truth must have
+#: converged where the learner's polish would go).
+TRUTH_POLISH_ROUNDS = 64
+#: Ground truth first plans this many rewards around w* (w* plus this s.d. of noise per weight,
+#: normalized: about 14° off) with the planner's budget, as the learner does near w*.
+TRUTH_CLOUD = 16
+TRUTH_CLOUD_SPREAD = 0.15
 
 
 def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
@@ -249,12 +257,25 @@ class SceneDomain(Domain):
         return self._library_warm(self.library, starts, weights)  # the plan, or better
 
     def _polish(self, library: TrajectoryLibrary, starts: np.ndarray, weights: np.ndarray,
-                rounds: int) -> None:
+                rounds: int, until_converged: bool = False) -> None:
         """``rounds`` rounds of the local quadratic model's proposals (``mjsuff.scenes.surrogate``)
-        for problems ``(starts[j], weights[j])``, into ``library``."""
+        for problems ``(starts[j], weights[j])``, into ``library``; with ``until_converged``,
+        fewer once two rounds in a row improve no problem's best value."""
+        starts, weights = np.asarray(starts), np.asarray(weights)
+
+        def best() -> np.ndarray:
+            return np.array([library.best(int(s), w[None])[0][0] for s, w in zip(starts, weights,
+                                                                                 strict=True)])
+
+        before, idle = (best() if until_converged else None), 0
         for _ in range(rounds):
-            polish(self.scene, library, np.asarray(starts), np.asarray(weights),
-                   self.planning.polish_neighbours)
+            polish(self.scene, library, starts, weights, self.planning.polish_neighbours)
+            if until_converged:
+                after = best()
+                idle = idle + 1 if np.all(after <= before + 1e-12 * (1.0 + np.abs(before))) else 0
+                if idle == 2:  # two rounds in a row improved no problem
+                    break
+                before = after
 
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
         key = self.policy_key(policy)
@@ -351,10 +372,12 @@ class SceneDomain(Domain):
         """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once.
 
         On a *copy* of the library, with randomness of its own (nothing of ``w*`` reaches the
-        learner's library, warm starts or refinement record): ``w*`` planned from every start by
+        learner's library, warm starts or refinement record): ``TRUTH_CLOUD`` rewards around
+        ``w*`` planned from every start with the planner's budget, then ``w*`` planned by
         three searches, each from the best found so far and with ``truth_scale`` × its budget
         (the seed planner's wide one, the planner's CMA-ES with a broad step, the planner
-        itself), and, when there is an expert, its best demo from every evaluation start (a
+        itself), the local quadratic model's proposals until they stop improving, and, when
+        there is an expert, its best demo from every evaluation start (a
         demonstrator that is never asked there in the run). The library maximum under ``w*``
         then. The replicate raises it to anything better it simulates later
         (``best_simulated_start_values``).
@@ -372,10 +395,19 @@ class SceneDomain(Domain):
             wide = self.planning.seed_planner or self.scene.seed_config
             broad = self.planner.config.model_copy(
                 update={"cma_sigma": max(TRUTH_SIGMA, self.planner.config.cma_sigma)})
+            # First the learner's own kind of search, for rewards around w* (as its π_MAP plans
+            # for posterior modes near w* are): each lands in some basin, and w*'s searches then
+            # start from the best of them all.
+            cloud = normalize(self.true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal(
+                (TRUTH_CLOUD, self.num_features)))
+            problems, directions = np.repeat(starts, TRUTH_CLOUD), np.tile(cloud, (len(starts), 1))
+            SamplingPlanner(self.scene, self.planner.config, library).plan(
+                problems, directions, rng, warm_knots=self._library_warm(library, problems,
+                                                                         directions))
             for search in (wide, broad, self.planner.config):
                 SamplingPlanner(self.scene, search.stronger(scale), library).plan(
                     starts, w, rng, warm_knots=self._library_warm(library, starts, w))
-            self._polish(library, starts, w, round(scale * self.planning.polish_rounds))
+            self._polish(library, starts, w, TRUTH_POLISH_ROUNDS, until_converged=True)
             if self.expert is not None:
                 best = type(self.expert)(self.scene, self.expert.settings.model_copy(
                     update={"rationality": None}))
