@@ -45,8 +45,9 @@ evaluation start, a local quadratic model of the value around the library's best
 the sample's own optimum is (``mjsuff.scenes.surrogate``: a few simulated rollouts per sample, in
 ``polish_rounds`` rounds, the tail re-ranked each round). The answer is the library maximum
 again, so it never drops below it. Plans (π for a reward) are polished the same way for their
-reward. Ground truth plans ``w*`` with three searches at larger budgets, each polished (on a copy
-of the library), and the replicate raises it to the best of everything it simulated.
+reward. Ground truth plans rewards around ``w*``, then ``w*`` with three searches at larger
+budgets, then polishes ``w*`` until the proposals stop improving (on a copy of the library), and
+the replicate raises it to the best of everything it simulated.
 """
 
 from __future__ import annotations
@@ -86,9 +87,9 @@ PERTURBATIONS = 16
 PERTURBATION_SIZES = (0.02, 0.05, 0.1, 0.2)
 #: Ground truth's broad CMA-ES step, as a share of the control range.
 TRUTH_SIGMA = 0.2
-#: Ground truth's rounds of the local quadratic model after each search, at most: until a round
-#: improves no start (the learner polishes plans near w* at every step, so the truth must have
-#: converged where the learner's polish would go).
+#: Ground truth's rounds of the local quadratic model after its searches, at most: it stops once
+#: two rounds in a row improve no start (the learner polishes plans near w* at every step, so the
+#: truth must have converged where the learner's polish would go).
 TRUTH_POLISH_ROUNDS = 64
 #: Ground truth first plans this many rewards around w* (w* plus this s.d. of noise per weight,
 #: normalized: about 14° off) with the planner's budget, as the learner does near w*.
