@@ -16,6 +16,11 @@ each β, printed per demo count over instances:
 A share that grows with the demos means the likelihood is misspecified in a way more demos make
 more confident: the bound then loses its confidence against the truth however good V* is.
 
+``--demonstrator likelihood`` is the sanity check of the machinery (sampler, HPD, quantile): every
+demo shown is instead drawn from the likelihood's own candidate set ``C_j`` (built around the
+expert's demo) with probability ∝ ``exp(β w*·φ)``, the demonstrator the likelihood describes. Its
+shares should then be near their calibrated values (up to the set's own dependence on ``w*``).
+
     python benchmarks/posterior_coverage.py lava_reacher --instances 10 --betas 34 17 8.5
 """
 
@@ -30,6 +35,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mjsuff.bounds import normalized_evd, policy_values
+from mjsuff.domain import Demo
 from mjsuff.experiment.replicate import demo_budget, make_instance, seed_sequence
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.experiment.selection import passive_order
@@ -39,7 +45,21 @@ ROOT = Path(__file__).resolve().parent.parent
 HPD_LEVEL = 0.9
 
 
-def run_instance(scene: str, instance: int, beta: float, overrides: list[str]) -> list[dict]:
+def likelihood_demo(domain, demo: Demo, beta: float, rng: np.random.Generator) -> Demo:
+    """A demo drawn from ``demo``'s candidate set ∝ exp(β w*·φ), with that same candidate set."""
+    candidates = domain.candidate_features(demo)
+    logits = beta * (candidates @ domain.true_weights)
+    p = np.exp(logits - logits.max())
+    pick = int(rng.choice(len(candidates), p=p / p.sum()))
+    phi = candidates[pick]
+    chosen = Demo(start=demo.start, data={"features": phi})
+    key = np.int64(demo.start).tobytes() + phi.tobytes()
+    domain._candidates[key] = np.vstack([phi[None], np.delete(candidates, pick, axis=0)])
+    return chosen
+
+
+def run_instance(scene: str, instance: int, beta: float, overrides: list[str],
+                 demonstrator: str = "expert") -> list[dict]:
     """Per demo count: w*'s HPD rank among the posterior's samples, its nEVD and the samples' α-quantile."""
     scenario = load_scenario(ROOT / "scenarios" / f"{scene}.toml", [*overrides, f"demos.beta={beta}"])
     alpha = scenario.sufficiency.alpha
@@ -54,7 +74,10 @@ def run_instance(scene: str, instance: int, beta: float, overrides: list[str]) -
         sw, mu_rand = domain.start_weights, domain.random_start_feature_expectations()
         demos, rows, previous = [], [], None
         for n, start in enumerate(order[: demo_budget(scenario, pool)], start=1):
-            demos.append(domain.demonstrate(int(start), demo_rng))
+            demo = domain.demonstrate(int(start), demo_rng)
+            if demonstrator == "likelihood":
+                demo = likelihood_demo(domain, demo, beta, demo_rng)
+            demos.append(demo)
 
             def log_post(w, used=tuple(demos)):
                 return domain.log_prior(w) + domain.log_likelihood(w, list(used), beta)
@@ -90,14 +113,19 @@ def main() -> None:
     parser.add_argument("--betas", type=float, nargs="+", default=[34.0, 17.0])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--demonstrator", choices=["expert", "likelihood"], default="expert",
+                        help="who shows the demos: the scene's expert, or a Boltzmann draw from the "
+                             "likelihood's candidate set (the sanity check)")
     args = parser.parse_args()
     t0 = time.perf_counter()
-    jobs = [(args.scene, i, b, args.set) for b in args.betas for i in range(args.instances)]
+    jobs = [(args.scene, i, b, args.set, args.demonstrator) for b in args.betas
+            for i in range(args.instances)]
     with ProcessPoolExecutor(args.workers) as pool:
         rows = [r for rs in pool.map(run_instance, *zip(*jobs, strict=True)) for r in rs]
     alpha = load_scenario(ROOT / "scenarios" / f"{args.scene}.toml", args.set).sufficiency.alpha
     demos = sorted({r["demos"] for r in rows})
-    print(f"{args.scene}: {args.instances} calibration instances, {time.perf_counter() - t0:.0f} s")
+    print(f"{args.scene}: {args.instances} calibration instances, demonstrator {args.demonstrator},"
+          f" {time.perf_counter() - t0:.0f} s")
     print("| β | share | " + " | ".join(str(n) for n in demos) + " |")
     print("| --- | --- |" + " --- |" * len(demos))
     for beta in args.betas:
