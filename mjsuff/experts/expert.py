@@ -6,6 +6,16 @@ in MuJoCo, and judges the executed trajectories by the hidden reward ``w* · φ`
 expert shows the best one; a Boltzmann expert with rationality ``β_E`` picks candidate ``c`` with
 probability ∝ ``exp(β_E w*·φ_c)``; a deliberately poor demo is drawn uniformly from the worse half of
 the candidates. The executed rollout (never the plan) is the demonstration.
+
+*Correction* (``correction_rounds`` > 0; not for poor or Boltzmann demos): the expert then corrects
+its chosen motion by hand the way the learner's likelihood probes it — smooth perturbations of the
+executed controls (``mjsuff.scenes.perturbation``), simulated; the best one replaces the demo when
+``w*`` values it higher — until ``correction_patience`` rounds in a row improve nothing. A demo
+the likelihood compares with its own perturbations is then (locally) what the likelihood assumes:
+not beaten by them under ``w*``. Without it, the mink path family's systematic shortfall (a few
+knots of a fitted path) is beaten under ``w*`` by some perturbations in a direction shared by all of
+an instance's demos, and more demos make the posterior surer of a reward that is not ``w*``
+(README, issue #17, "Why the bound misses").
 """
 
 from __future__ import annotations
@@ -16,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from mjsuff.scenes.perturbation import perturb_controls
 from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.simulate import Rollouts
 
@@ -33,6 +44,11 @@ class ExpertSettings(BaseModel):
         None, gt=0.0, description="Boltzmann rationality over candidates; none = always the best")
     refine_rounds: int = Field(2, ge=0, le=10, description="local refinement rounds around the best path")
     refine_candidates: int = Field(16, ge=1, le=256, description="candidates per refinement round")
+    correction_rounds: int = Field(
+        0, ge=0, le=1000, description="most rounds of correcting the chosen demo by smooth control "
+                                      "perturbations (64 rollouts each); 0 = none")
+    correction_patience: int = Field(
+        3, ge=1, le=100, description="correction stops after this many rounds in a row without improvement")
 
 
 @dataclass(frozen=True)
@@ -83,6 +99,7 @@ class ExpertDemo:
         value: ``w* · φ`` of the demo; ``best_value``: of the best candidate.
         candidates: Candidates executed; ``ik_failures``: candidates mink could not follow.
         poor: Whether it was a deliberately poor demo.
+        corrections: Correction rounds that improved the demo (see the module docs).
     """
 
     start_qpos: np.ndarray
@@ -100,6 +117,7 @@ class ExpertDemo:
     ik_failures: int
     poor: bool = False
     failures: list[str] = field(default_factory=list)
+    corrections: int = 0
 
 
 class Expert(abc.ABC):
@@ -138,6 +156,31 @@ class Expert(abc.ABC):
     def execute(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[ExecutedPaths, list[str]]:
         """Track and execute candidate paths; -> those mink could follow, and why the rest failed."""
 
+    @abc.abstractmethod
+    def task_path(self, rollouts: Rollouts) -> np.ndarray:
+        """The task-space path ``(B, T, d)`` of executed trajectories (m), as in ``ExecutedPaths``."""
+
+    def correct(self, start_qpos: np.ndarray, controls: np.ndarray, value: float,
+                weights: np.ndarray, rng: np.random.Generator) -> tuple[Rollouts | None, int]:
+        """Correct executed ``controls`` ``(T, nu)`` worth ``value`` under ``weights``: -> the best
+        corrected rollout (batch of one; None if no round improved) and the rounds that improved."""
+        best, improved, idle = None, 0, 0
+        for _ in range(self.settings.correction_rounds):
+            batch = perturb_controls(self.scene.spline, controls, rng)
+            rollouts, features = self.scene.simulate_controls(start_qpos[None], batch)
+            values = np.where(np.isfinite(features).all(axis=1), features @ weights, -np.inf)
+            i = int(np.argmax(values))
+            if values[i] > value:
+                best = Rollouts(rollouts.qpos[i:i + 1], rollouts.qvel[i:i + 1],
+                                rollouts.sensordata[i:i + 1], rollouts.controls[i:i + 1],
+                                rollouts.valid[i:i + 1])
+                controls, value, improved, idle = batch[i], float(values[i]), improved + 1, 0
+            else:
+                idle += 1
+                if idle >= self.settings.correction_patience:
+                    break
+        return best, improved
+
     def demonstrate(self, start_qpos: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
                     poor: bool = False) -> ExpertDemo:
         """A demonstration from ``start_qpos`` judged by hidden ``weights``; see the module docs."""
@@ -172,13 +215,24 @@ class Expert(abc.ABC):
             p = np.exp(logits)
             pick = int(rng.choice(usable, p=p / p.sum()))
         chosen, j = where[pick]
+        qpos, qvel, controls = chosen.rollouts.qpos[j], chosen.rollouts.qvel[j], chosen.rollouts.controls[j]
+        features, executed, error = chosen.features[j], chosen.executed[j], float(chosen.tracking_error[j])
+        value, corrections = float(values[pick]), 0
+        if not poor and self.settings.rationality is None:
+            start_qpos = np.asarray(start_qpos, dtype=float)
+            fixed, corrections = self.correct(start_qpos, controls, value, weights, rng)
+            if fixed is not None:
+                qpos, qvel, controls = fixed.qpos[0], fixed.qvel[0], fixed.controls[0]
+                features = self.scene.features(fixed)[0]
+                executed = self.task_path(fixed)[0]
+                error = float(np.linalg.norm(executed - chosen.intended[j], axis=1).max())
+                value = float(features @ weights)
         return ExpertDemo(
-            start_qpos=np.asarray(start_qpos, dtype=float).copy(), qpos=chosen.rollouts.qpos[j],
-            qvel=chosen.rollouts.qvel[j], controls=chosen.rollouts.controls[j],
-            features=chosen.features[j], intended=chosen.intended[j], executed=chosen.executed[j],
-            tracking_error=float(chosen.tracking_error[j]), params=chosen.params[j],
-            value=float(values[pick]), best_value=float(values[usable].max()),
-            candidates=len(values), ik_failures=len(failures), poor=poor, failures=failures)
+            start_qpos=np.asarray(start_qpos, dtype=float).copy(), qpos=qpos, qvel=qvel,
+            controls=controls, features=features, intended=chosen.intended[j], executed=executed,
+            tracking_error=error, params=chosen.params[j], value=value,
+            best_value=max(value, float(values[usable].max())), candidates=len(values),
+            ik_failures=len(failures), poor=poor, failures=failures, corrections=corrections)
 
     @staticmethod
     def _best(paths: ExecutedPaths, weights: np.ndarray) -> tuple[np.ndarray, float] | None:

@@ -63,6 +63,7 @@ from scipy.special import logsumexp
 from mjsuff.bounds.regret import normalized_evd
 from mjsuff.domain import Demo, Domain
 from mjsuff.scenes.library import TrajectoryLibrary
+from mjsuff.scenes.perturbation import perturb_controls
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
@@ -82,9 +83,6 @@ RANDOM_PATH_ROUNDS = 8
 #: Reward directions (fixed, spread over the prior's orthant) whose library optimum joins a
 #: demo's candidate set.
 CANDIDATE_DIRECTIONS = 64
-#: Perturbed copies of a demo's controls per size; sizes as shares of the control range.
-PERTURBATIONS = 16
-PERTURBATION_SIZES = (0.02, 0.05, 0.1, 0.2)
 #: Ground truth's broad CMA-ES step, as a share of the control range.
 TRUTH_SIGMA = 0.2
 #: Ground truth's rounds of the local quadratic model after its searches, at most: it stops once
@@ -504,20 +502,10 @@ class SceneDomain(Domain):
         return int(np.sum(values[1:] > values[0] + 1e-12))
 
     def _perturbed(self, start: int, controls: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Features of ``controls`` ``(T, nu)`` plus smooth random offsets (zero at t = 0, hat
-        functions over the spline's knots), simulated from library start ``start``; diverged
-        ones dropped."""
-        spline = self.scene.spline
-        knots = spline.num_knots + 1
-        basis = np.clip(1.0 - np.abs(np.linspace(0, 1, len(controls))[:, None]
-                                     - np.linspace(0, 1, knots)[None, :]) * (knots - 1), 0.0, None)
-        sizes = np.repeat(PERTURBATION_SIZES, PERTURBATIONS)
-        noise = rng.standard_normal((len(sizes), knots, spline.num_controls))
-        noise[:, 0] = 0.0
-        offsets = np.einsum("tk,bku->btu", basis, noise * sizes[:, None, None])
-        low = np.minimum(spline.low, controls.min(axis=0))
-        high = np.maximum(spline.high, controls.max(axis=0))
-        batch = np.clip(controls + offsets * (spline.high - spline.low), low, high)
+        """Features of smooth perturbations of ``controls`` ``(T, nu)``
+        (``mjsuff.scenes.perturbation``), simulated from library start ``start``; diverged ones
+        dropped."""
+        batch = perturb_controls(self.scene.spline, controls, rng)
         _, features = self.scene.simulate_controls(
             np.repeat(self.scene.all_starts[start][None], len(batch), axis=0), batch)
         return features[np.isfinite(features).all(axis=1)]
