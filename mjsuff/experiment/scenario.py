@@ -44,6 +44,11 @@ class DemoSettings(_Strict):
     selection: Literal["passive", "active"] = "passive"
     noise_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of poor demos")
     beta: float = Field(10.0, gt=0.0, le=1000.0, description="Boltzmann rationality of the likelihood")
+    candidates: Literal["library", "family"] = Field(
+        "library", description="scene domains: what the likelihood compares a demo with besides "
+                               "random trajectories and its own perturbations — the library's "
+                               "optima for fixed reward directions, or the demonstrator's own "
+                               "first candidates (its path family) from the demo's start")
 
 
 class SufficiencySettings(_Strict):

@@ -25,10 +25,16 @@ mode's optimum before the first demo.
 
 Likelihood (DESIGN, trajectory-level Bayesian IRL). Demo ``j`` from pool start ``s_j`` with
 features ``φ_j`` has ``P(φ_j | w) = exp(β w·φ_j) / Σ_{τ ∈ C_j} exp(β w·φ(τ))`` over a candidate set
-``C_j`` fixed when the demo is first seen: the demo itself; the library's best trajectory from
-``s_j`` for each of a fixed spread of reward directions over the prior's orthant (library optima:
-plans, refinements, or random trajectories); uniform-random trajectories from ``s_j``; and the
-demo's own controls under smooth perturbations of a few sizes, simulated. The perturbations
+``C_j`` fixed when the demo is first seen: the demo itself; either (``demos.candidates =
+"library"``) the library's best trajectory from ``s_j`` for each of a fixed spread of reward
+directions over the prior's orthant (library optima: plans, refinements, or random trajectories),
+or (``"family"``) the demonstrator's own first candidates from ``s_j`` (its coarse path family,
+executed), the set a demonstrator that shows its best must have beaten; uniform-random
+trajectories from ``s_j``; and the demo's own controls under smooth perturbations of a few sizes
+(``mjsuff.scenes.perturbation``), simulated. With ``"library"`` the likelihood is misspecified
+for a demonstrator restricted to a path family: the library's optima beat its demos under ``w*``
+in a direction shared by an instance's demos, so more demos move the posterior away from ``w*``
+(README, issue #17, "Why the bound misses"). The perturbations
 matter: against planner trajectories alone the likelihood would favour whatever directions the
 demo happens to beat the planner in most; against its own neighbours it favours the directions
 under which the demo is locally optimal. A batch of weights costs one matrix product and a
@@ -153,6 +159,8 @@ class SceneDomain(Domain):
         self.unchanged_tolerance = unchanged_tolerance
         self.match_tolerance = match_tolerance
         self.optimal_gap = optimal_gap
+        self.candidates = "library"
+        self._family: dict[int, np.ndarray] = {}
         knots = scene.spline.uniform(rng, RANDOM_TRAJECTORIES * (s + p))
         _, feats = scene.simulate(np.repeat(scene.all_starts, RANDOM_TRAJECTORIES, axis=0), knots)
         feats = feats.reshape(s + p, RANDOM_TRAJECTORIES, k)
@@ -226,6 +234,7 @@ class SceneDomain(Domain):
             self.expert = EXPERTS[scenario.domain.name][1](self.scene, scenario.expert)
         self.unchanged_tolerance = scenario.rules.unchanged_tolerance
         self.match_tolerance = scenario.rules.match_tolerance
+        self.candidates = scenario.demos.candidates
 
     # -- prior ---------------------------------------------------------------------------------
     uniform_prior = False
@@ -483,10 +492,13 @@ class SceneDomain(Domain):
                 raise ValueError(f"demo from pool start {demo.start}: features must be "
                                  f"{self.num_features} finite numbers, got {phi}")
             s = int(self.pool[demo.start])
-            features, _ = self.library.arrays(s)
-            best = np.unique(self.library.best(s, self._directions)[1])
+            if self.candidates == "family":
+                alternatives = self._family_features(s)
+            else:
+                features, _ = self.library.arrays(s)
+                alternatives = features[np.unique(self.library.best(s, self._directions)[1])]
             randoms = self._random_features[s]
-            parts = [phi[None], features[best], randoms[np.isfinite(randoms).all(axis=1)]]
+            parts = [phi[None], alternatives, randoms[np.isfinite(randoms).all(axis=1)]]
             if "controls" in demo.data:
                 near = self._perturbed(s, np.asarray(demo.data["controls"], dtype=float),
                                        np.random.default_rng(zlib.crc32(key)))
@@ -495,6 +507,18 @@ class SceneDomain(Domain):
             self._candidates[key] = np.concatenate(parts)
             self.library.add_features(s, phi)
         return self._candidates[key]
+
+    def _family_features(self, start: int) -> np.ndarray:
+        """Features of the demonstrator's first candidates (``Expert.coarse_params``) executed
+        from library start ``start`` ``(M, k)``, those it could follow; cached per start."""
+        if start not in self._family:
+            if self.expert is None:
+                raise RuntimeError("candidates = 'family' needs the domain's expert")
+            q = self.scene.all_starts[start]
+            done, _ = self.expert.execute(q, self.expert.coarse_params(q))
+            features = done.features.reshape(-1, self.num_features)
+            self._family[start] = features[np.isfinite(features).all(axis=1)]
+        return self._family[start]
 
     def alternatives_better(self, demo: Demo, w: np.ndarray) -> int:
         """Members of the demo's candidate set worth more than the demo under ``w`` (ties excluded)."""
