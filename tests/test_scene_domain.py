@@ -4,6 +4,8 @@ One small instance per scene (3 evaluation starts, small planning budgets) share
 the expensive pieces (expert demos, planning) run once.
 """
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -42,6 +44,26 @@ def test_candidate_set_holds_the_demo_and_the_demo_joins_the_library(case):
         w = domain.true_weights
         assert domain.library.best_value(int(domain.pool[demo.start]), w[None])[0] >= (
             w @ demo.data["features"] - 1e-12)
+
+
+def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(case):
+    """With ``demos.candidates = "family"`` (issue #17) a demo is compared with the expert's first
+    candidates from its start, which a demonstrator that shows its best has beaten under w*: the
+    likelihood's assumption holds by construction (up to its random perturbations)."""
+    domain, _ = case
+    name = "lander" if domain.scene.feature_names[0] == "landing_error" else "lava_reacher"
+    scenario = scenario_from_dict({"name": "t", "domain": {"name": name},
+                                   "demos": {"candidates": "family"}}, "test")
+    fresh = copy.deepcopy(domain)
+    fresh.configure(scenario)
+    assert fresh.candidates == "family"
+    w = fresh.true_weights
+    for demo in (fresh.demonstrate(s, np.random.default_rng(4)) for s in range(2)):
+        candidates = fresh.candidate_features(demo)
+        family = fresh._family_features(int(fresh.pool[demo.start]))
+        assert len(family) >= 5 and np.isfinite(candidates).all()
+        np.testing.assert_array_equal(candidates[1:1 + len(family)], family)
+        assert (family @ w <= candidates[0] @ w + 1e-12).all()
 
 
 def test_likelihood_is_a_boltzmann_distribution_over_the_candidates(case):
