@@ -58,8 +58,9 @@ def likelihood_demo(domain, demo: Demo, beta: float, rng: np.random.Generator) -
     return chosen
 
 
-def run_instance(scene: str, instance: int, beta: float, overrides: list[str],
-                 demonstrator: str = "expert") -> list[dict]:
+def run_instance(
+    scene: str, instance: int, beta: float, overrides: list[str], demonstrator: str = "expert"
+) -> list[dict]:
     """Per demo count: w*'s HPD rank among the posterior's samples, its nEVD and the samples' α-quantile."""
     scenario = load_scenario(ROOT / "scenarios" / f"{scene}.toml", [*overrides, f"demos.beta={beta}"])
     alpha = scenario.sufficiency.alpha
@@ -113,19 +114,26 @@ def main() -> None:
     parser.add_argument("--betas", type=float, nargs="+", default=[34.0, 17.0])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    parser.add_argument("--demonstrator", choices=["expert", "likelihood"], default="expert",
-                        help="who shows the demos: the scene's expert, or a Boltzmann draw from the "
-                             "likelihood's candidate set (the sanity check)")
+    parser.add_argument(
+        "--demonstrator",
+        choices=["expert", "likelihood"],
+        default="expert",
+        help="who shows the demos: the scene's expert, or a Boltzmann draw from the "
+        "likelihood's candidate set (the sanity check)",
+    )
     args = parser.parse_args()
     t0 = time.perf_counter()
-    jobs = [(args.scene, i, b, args.set, args.demonstrator) for b in args.betas
-            for i in range(args.instances)]
+    jobs = [
+        (args.scene, i, b, args.set, args.demonstrator) for b in args.betas for i in range(args.instances)
+    ]
     with ProcessPoolExecutor(args.workers) as pool:
         rows = [r for rs in pool.map(run_instance, *zip(*jobs, strict=True)) for r in rs]
     alpha = load_scenario(ROOT / "scenarios" / f"{args.scene}.toml", args.set).sufficiency.alpha
     demos = sorted({r["demos"] for r in rows})
-    print(f"{args.scene}: {args.instances} calibration instances, demonstrator {args.demonstrator},"
-          f" {time.perf_counter() - t0:.0f} s")
+    print(
+        f"{args.scene}: {args.instances} calibration instances, demonstrator {args.demonstrator},"
+        f" {time.perf_counter() - t0:.0f} s"
+    )
     print("| β | share | " + " | ".join(str(n) for n in demos) + " |")
     print("| --- | --- |" + " --- |" * len(demos))
     for beta in args.betas:

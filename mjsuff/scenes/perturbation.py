@@ -19,15 +19,23 @@ PERTURBATIONS = 16
 PERTURBATION_SIZES = (0.02, 0.05, 0.1, 0.2)
 
 
-def perturb_controls(spline: ControlSpline, controls: np.ndarray, rng: np.random.Generator,
-                     count: int = PERTURBATIONS,
-                     sizes: tuple[float, ...] = PERTURBATION_SIZES) -> np.ndarray:
+def perturb_controls(
+    spline: ControlSpline,
+    controls: np.ndarray,
+    rng: np.random.Generator,
+    count: int = PERTURBATIONS,
+    sizes: tuple[float, ...] = PERTURBATION_SIZES,
+) -> np.ndarray:
     """``count`` smooth perturbations per size of per-step controls ``(T, nu)`` -> ``(count ·
     len(sizes), T, nu)`` (same units as the controls)."""
     controls = np.asarray(controls, dtype=float)
     knots = spline.num_knots + 1
-    basis = np.clip(1.0 - np.abs(np.linspace(0, 1, len(controls))[:, None]
-                                 - np.linspace(0, 1, knots)[None, :]) * (knots - 1), 0.0, None)
+    basis = np.clip(
+        1.0
+        - np.abs(np.linspace(0, 1, len(controls))[:, None] - np.linspace(0, 1, knots)[None, :]) * (knots - 1),
+        0.0,
+        None,
+    )
     spread = np.repeat(np.asarray(sizes, dtype=float), count)
     noise = rng.standard_normal((len(spread), knots, spline.num_controls))
     noise[:, 0] = 0.0
