@@ -157,13 +157,16 @@ class Expert(abc.ABC):
         """Track and execute candidate paths; -> those mink could follow, and why the rest failed."""
 
     @abc.abstractmethod
-    def task_path(self, rollouts: Rollouts) -> np.ndarray:
-        """The task-space path ``(B, T, d)`` of executed trajectories (m), as in ``ExecutedPaths``."""
+    def task_path(self, qpos: np.ndarray) -> np.ndarray:
+        """The task-space path ``(B, T, d)`` (m) of joint positions ``(B, T, nq)``, as in
+        ``ExecutedPaths``."""
 
     def correct(self, start_qpos: np.ndarray, controls: np.ndarray, value: float,
-                weights: np.ndarray, rng: np.random.Generator) -> tuple[Rollouts | None, int]:
+                weights: np.ndarray, rng: np.random.Generator
+                ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None, int]:
         """Correct executed ``controls`` ``(T, nu)`` worth ``value`` under ``weights``: -> the best
-        corrected rollout (batch of one; None if no round improved) and the rounds that improved."""
+        corrected ``(qpos, qvel, controls, features)`` (None if no round improved) and the
+        rounds that improved."""
         best, improved, idle = None, 0, 0
         for _ in range(self.settings.correction_rounds):
             batch = perturb_controls(self.scene.spline, controls, rng)
@@ -171,9 +174,7 @@ class Expert(abc.ABC):
             values = np.where(np.isfinite(features).all(axis=1), features @ weights, -np.inf)
             i = int(np.argmax(values))
             if values[i] > value:
-                best = Rollouts(rollouts.qpos[i:i + 1], rollouts.qvel[i:i + 1],
-                                rollouts.sensordata[i:i + 1], rollouts.controls[i:i + 1],
-                                rollouts.valid[i:i + 1])
+                best = (rollouts.qpos[i], rollouts.qvel[i], rollouts.controls[i], features[i])
                 controls, value, improved, idle = batch[i], float(values[i]), improved + 1, 0
             else:
                 idle += 1
@@ -222,9 +223,8 @@ class Expert(abc.ABC):
             start_qpos = np.asarray(start_qpos, dtype=float)
             fixed, corrections = self.correct(start_qpos, controls, value, weights, rng)
             if fixed is not None:
-                qpos, qvel, controls = fixed.qpos[0], fixed.qvel[0], fixed.controls[0]
-                features = self.scene.features(fixed)[0]
-                executed = self.task_path(fixed)[0]
+                qpos, qvel, controls, features = fixed
+                executed = self.task_path(qpos[None])[0]
                 error = float(np.linalg.norm(executed - chosen.intended[j], axis=1).max())
                 value = float(features @ weights)
         return ExpertDemo(

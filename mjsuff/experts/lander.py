@@ -27,7 +27,6 @@ from mjsuff.experts.expert import ExecutedPaths, Expert, ExpertSettings
 from mjsuff.experts.ik import IKFailure, IKSettings, PathTracker
 from mjsuff.experts.paths import fall_and_brake, minimum_jerk
 from mjsuff.scenes.lander import REST_HEIGHT, TOUCH_THRESHOLD, Lander
-from mjsuff.scenes.simulate import Rollouts
 
 #: Coarse grid: fall acceleration (share of g), braking (share of the thrust's margin over
 #: gravity), touchdown speed (m/s), lateral share of the way to the pad.
@@ -134,9 +133,9 @@ class LanderExpert(Expert):
         setpoint = np.where(touched, low, setpoint)
         return np.column_stack([setpoint, pitch_target])
 
-    def task_path(self, rollouts: Rollouts) -> np.ndarray:
+    def task_path(self, qpos: np.ndarray) -> np.ndarray:
         """The craft's (x, z) position ``(B, T, 2)`` (m)."""
-        return rollouts.qpos[:, :, :2]
+        return qpos[:, :, :2]
 
     def execute(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[ExecutedPaths, list[str]]:
         m, dt = self.scene.model, self.scene.model.opt.timestep
@@ -176,7 +175,7 @@ class LanderExpert(Expert):
         knots = spline.clip(np.einsum("kt,ctu->cku", np.linalg.pinv(spline.basis), controls))
         rollouts, features = self.scene.simulate(np.asarray(start_qpos), knots)
         intended = np.array(paths)
-        executed = self.task_path(rollouts)
+        executed = self.task_path(rollouts.qpos)
         error = np.linalg.norm(executed - intended, axis=2).max(axis=1)
         return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error,
                              knots), failures

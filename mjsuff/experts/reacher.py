@@ -21,7 +21,6 @@ from mjsuff.experts.expert import ExecutedPaths, Expert, ExpertSettings
 from mjsuff.experts.ik import IKFailure, IKSettings, PathTracker
 from mjsuff.experts.paths import minimum_jerk, quadratic_bezier
 from mjsuff.scenes.lava_reacher import LavaReacher, fingertip_xy
-from mjsuff.scenes.simulate import Rollouts
 
 OFFSETS = np.linspace(-0.24, 0.24, 9)
 DURATIONS = np.array([0.5, 0.8, 1.1, 1.4])
@@ -78,9 +77,9 @@ class ReacherExpert(Expert):
         xy = quadratic_bezier(tip, middle, end, s)
         return np.column_stack([xy, np.zeros(len(xy))])
 
-    def task_path(self, rollouts: Rollouts) -> np.ndarray:
+    def task_path(self, qpos: np.ndarray) -> np.ndarray:
         """The fingertip's path in the plane ``(B, T, 2)`` (m)."""
-        return fingertip_xy(rollouts.qpos)
+        return fingertip_xy(qpos)
 
     def execute(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[ExecutedPaths, list[str]]:
         dt = self.scene.model.opt.timestep
@@ -106,7 +105,7 @@ class ReacherExpert(Expert):
         knots = spline.clip(np.array(knots))
         rollouts, features = self.scene.simulate(np.asarray(start_qpos), knots)
         intended = np.array(paths)[:, :, :2]
-        executed = self.task_path(rollouts)  # after each step, aligned with the intended path
+        executed = self.task_path(rollouts.qpos)  # after each step, aligned with the intended path
         error = np.linalg.norm(executed - intended, axis=2).max(axis=1)
         return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error,
                              knots), failures
