@@ -234,6 +234,8 @@ class SceneDomain(Domain):
             self.expert = EXPERTS[scenario.domain.name][1](self.scene, scenario.expert)
         self.unchanged_tolerance = scenario.rules.unchanged_tolerance
         self.match_tolerance = scenario.rules.match_tolerance
+        if scenario.demos.candidates != self.candidates:
+            self._candidates.clear()  # sets built for the other kind of candidates are stale
         self.candidates = scenario.demos.candidates
 
     # -- prior ---------------------------------------------------------------------------------
