@@ -6,14 +6,22 @@ import pytest
 
 from mjsuff.domains import REGISTRY
 from mjsuff.scenes.lander import REST_HEIGHT, Lander, LanderParams
-from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams, fingertip_xy
+from mjsuff.scenes.lava_reacher import (
+    DISTANCE_SCALE,
+    HAZARD_SCALE,
+    REACH,
+    LavaReacher,
+    LavaReacherParams,
+    fingertip_xy,
+)
 from mjsuff.scenes.planner import PlannerConfig, SamplingPlanner
 from mjsuff.scenes.scene import MODELS, load_model, model_path
 
 SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
           "lander": (Lander, LanderParams)}
 #: Documented feature ranges (see the scene modules' docstrings).
-RANGES = {"lava_reacher": [(0, 2 * 0.36 / 0.2), (0, 1 / 0.1), (0, 1 / 0.1), (0, 40)],
+RANGES = {"lava_reacher": [(0, 2 * REACH / DISTANCE_SCALE), (0, 1 / HAZARD_SCALE),
+                           (0, 1 / HAZARD_SCALE), (0, 40)],
           "lander": [(0, 6), (0, 3), (0, 1), (0, 2)]}
 
 

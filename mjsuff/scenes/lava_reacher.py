@@ -7,9 +7,11 @@ mean over the horizon's steps (so a step's share is its value divided by the ste
 * ``distance`` — fingertip-to-goal distance divided by ``DISTANCE_SCALE`` (0.2 m); about 2 at the
   start, 0 once at the goal: how soon the arm gets there.
 * ``lava`` — penetration depth into the lava disk, ``max(0, r − ‖tip − c‖) / r``, divided by
-  ``HAZARD_SCALE`` (0.1); 0 outside the disk: a smooth exposure, not a 0/1 hit. A straight pass
-  through the disk's middle at a brisk pace scores about 1–3, so crossing costs about as much as
-  a slow reach.
+  ``HAZARD_SCALE`` (0.03); 0 outside the disk: a smooth exposure, not a 0/1 hit. A straight pass
+  through the disk's middle at a brisk pace scores about 3–10, several times a slow reach, so a
+  reward that weighs the hazard at all goes around it, and one that ignores it goes through: what
+  the learner believes of a hazard it has not seen demonstrated decides the motion (issue #17:
+  at 0.1, crossing cost about as much as a slow reach and the first demo was nearly enough).
 * ``water`` — the same depth for the water disk.
 * ``motion`` — squared joint speed ``Σ q̇²`` divided by ``MOTION_SCALE`` (10 (rad/s)²); about 1
   for a brisk reach, 0 when still.
@@ -51,7 +53,7 @@ FEATURE_NAMES = ("distance", "lava", "water", "motion")
 #: Hazard disks, in feature order after ``distance``: the lava on the right, the water on the left.
 HAZARDS = ("lava", "water")
 DISTANCE_SCALE = 0.2
-HAZARD_SCALE = 0.1
+HAZARD_SCALE = 0.03
 MOTION_SCALE = 10.0
 #: Starts keep this far from every joint limit (rad): near a limit mink's IK cannot follow most paths.
 START_LIMIT_MARGIN = 0.5
