@@ -41,7 +41,7 @@ def setup(request):
 
 def test_demos_are_near_the_planners_optimum(setup):
     name, scene, expert = setup
-    w = -unit([0.5, 0.6, 0.4, 0.3][: scene.num_features])
+    w = -unit([0.5, 0.6, 0.4, 0.3, 0.4, 0.4][: scene.num_features])
     demos = [expert.demonstrate(scene.starts[s], w, np.random.default_rng(s)) for s in range(STARTS)]
     planned = SamplingPlanner(scene, scene.planner_config).plan(
         np.arange(STARTS), np.tile(w, (STARTS, 1)), np.random.default_rng(0)).values
@@ -93,8 +93,10 @@ def test_lander_fuel_weight_trades_fuel_for_a_harder_landing():
     scene = Lander(LanderParams(eval_starts=2), np.random.default_rng(0))
     expert = LanderExpert(scene)
     start = scene.starts[0]
-    frugal = expert.demonstrate(start, unit([-0.3, -0.05, -0.95, -0.1]), np.random.default_rng(0))
-    gentle = expert.demonstrate(start, unit([-0.3, -0.95, -0.05, -0.1]), np.random.default_rng(0))
+    frugal = expert.demonstrate(start, unit([-0.3, -0.05, -0.95, -0.1, -0.05, -0.05]),
+                                np.random.default_rng(0))
+    gentle = expert.demonstrate(start, unit([-0.3, -0.95, -0.05, -0.1, -0.05, -0.05]),
+                                np.random.default_rng(0))
     assert frugal.features[2] < gentle.features[2]  # fuel
     assert frugal.features[1] > 2 * gentle.features[1]  # impact
 

@@ -124,14 +124,20 @@ def test_prior_is_the_all_negative_orthant(case):
 
 
 def test_random_policy_is_random_goal_directed_paths_of_the_expert(case):
-    """V_rand comes from the demonstrator's family with random parameters: purposeful, so worse
-    than the plan for w* by a finite margin, and far better than uniform-random splines."""
+    """V_rand comes from the demonstrator's family with random parameters: purposeful (they make
+    for the goal: feature 0, the distance to it, is smaller than uniform-random splines'), and
+    worse than the plan for w*. (Worth more than uniform-random splines under w* too on the
+    reacher; not always on the lander, where aimless set-points often hover far from the keep-out
+    zones that goal-directed descents cross.)"""
     domain, _ = case
     w = domain.true_weights
-    v_rand = domain.random_start_feature_expectations() @ w
+    random_mu = domain.random_start_feature_expectations()
     v_plan = domain.start_feature_expectations(domain.plan(w)) @ w
-    aimless = domain._random_features[:3].mean(axis=1) @ w  # uniform-random splines
-    assert np.all(v_plan > v_rand) and np.all(v_rand > aimless)
+    aimless = domain._random_features[:3].mean(axis=1)  # uniform-random splines
+    assert np.all(v_plan > random_mu @ w)
+    assert np.all(random_mu[:, 0] < aimless[:, 0])
+    if domain.scene.feature_names[0] == "distance":  # the reacher
+        assert np.all(random_mu @ w > aimless @ w)
 
 
 def test_pool_regrets_are_nonnegative_where_the_library_holds_the_plan(case):

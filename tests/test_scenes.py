@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from mjsuff.domains import REGISTRY
-from mjsuff.scenes.lander import REST_HEIGHT, Lander, LanderParams
+from mjsuff.scenes.lander import REST_HEIGHT, ZONE_SCALE, Lander, LanderParams
 from mjsuff.scenes.lava_reacher import (
     DISTANCE_SCALE,
     HAZARD_SCALE,
@@ -22,7 +22,7 @@ SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
 #: Documented feature ranges (see the scene modules' docstrings).
 RANGES = {"lava_reacher": [(0, 2 * REACH / DISTANCE_SCALE), (0, 1 / HAZARD_SCALE),
                            (0, 1 / HAZARD_SCALE), (0, 40)],
-          "lander": [(0, 6), (0, 3), (0, 1), (0, 2)]}
+          "lander": [(0, 6), (0, 3), (0, 1), (0, 2), (0, 1 / ZONE_SCALE), (0, 1 / ZONE_SCALE)]}
 
 
 def make(name, seed=0, **params):
@@ -155,10 +155,45 @@ def test_reacher_detours_around_lava_only_when_it_matters():
 
 def test_lander_saves_fuel_and_lands_harder_when_fuel_is_costly():
     scene = make("lander", 0)
-    frugal = plan_features(scene, [-0.3, -0.2, -0.9, -0.2])
-    lavish = plan_features(scene, [-0.3, -0.9, -0.02, -0.2])
+    frugal = plan_features(scene, [-0.3, -0.2, -0.9, -0.2, -0.1, -0.1])
+    lavish = plan_features(scene, [-0.3, -0.9, -0.02, -0.2, -0.1, -0.1])
     assert frugal[:, 2].mean() < lavish[:, 2].mean()  # less fuel
     assert frugal[:, 1].mean() > lavish[:, 1].mean()  # harder touchdown
+
+
+@pytest.mark.parametrize("zone", [0, 1])
+def test_lander_zone_feature_only_inside_its_zone(zone):
+    scene = make("lander", 5)
+    x, r = scene.zone_x[zone], scene.zone_radii[zone]
+    hover = np.zeros((1, *scene.spline.shape))  # climb-rate set-point 0, upright: holds height
+    for height, inside in ((0.7, True), (r + 0.3, False)):
+        _, features = scene.simulate(np.array([[x, height, 0.0]]), hover)
+        assert (features[0, 4 + zone] > 1.0) == inside
+        assert features[0, 5 - zone] == 0.0  # the zones are apart: never in both
+
+
+def test_lander_starts_alternate_sides_and_each_side_faces_its_own_zone():
+    scene = make("lander", 2, pool_starts=10)
+    assert scene.start_sides.tolist() == [0, 1, 0, 1] and sorted(scene.pool_sides) == [0] * 5 + [1] * 5
+    assert scene.zone_x[1] < scene.pad_x < scene.zone_x[0]  # habitat right, array left
+    for starts, sides in ((scene.starts, scene.start_sides), (scene.pool_starts, scene.pool_sides)):
+        own, other = scene.zone_x[sides], scene.zone_x[1 - sides]
+        # The own side's zone lies between the start and the pad, the other beyond the pad.
+        assert ((starts[:, 0] - own) * (own - scene.pad_x) > 0).all()
+        assert ((other - scene.pad_x) * (scene.pad_x - starts[:, 0]) > 0).all()
+    # Resting on the pad keeps the craft outside both zones.
+    assert (np.hypot(scene.zone_x - scene.pad_x, REST_HEIGHT) > scene.zone_radii).all()
+
+
+def test_lander_flies_over_its_zone_only_when_it_matters():
+    scene = make("lander", 0)
+    careful = plan_features(scene, [-0.4, -0.3, -0.3, -0.1, -0.8, -0.8])
+    careless = plan_features(scene, [-0.4, -0.3, -0.3, -0.1, -0.01, -0.01])
+    exposure = {k: f[:, 4:].sum(axis=1).mean() for k, f in (("careful", careful),
+                                                            ("careless", careless))}
+    assert exposure["careful"] < 0.25 * exposure["careless"]  # far less exposure
+    # Paid for with a harder touchdown or more fuel (over the zone, the descent comes later).
+    assert careful[:, 1:3].sum(axis=1).mean() > careless[:, 1:3].sum(axis=1).mean()
 
 
 def test_reacher_primitives_move_in_joint_space_toward_goal_postures():

@@ -143,7 +143,7 @@ def test_pi_map_runs_in_the_environment(name):
 def test_bad_input_names_the_scene_and_what_was_expected():
     with pytest.raises(ValueError, match=r"unknown scene 'cartpole'.*\['lander', 'lava_reacher'\]"):
         suite.load("cartpole")
-    with pytest.raises(ValueError, match=r"weights: scene 'lander' rewards 4 features.*shape \(3,\)"):
+    with pytest.raises(ValueError, match=r"weights: scene 'lander' rewards 6 features.*shape \(3,\)"):
         suite.load("lander", weights=np.ones(3))
     with pytest.raises(ValueError, match="eval_starts"):
         suite.load("lava_reacher", params={"eval_starts": 0})

@@ -1,4 +1,5 @@
-"""Lander (analog of Gym's LunarLander): a planar craft lands on a pad under lunar gravity.
+"""Lander (analog of Gym's LunarLander): a planar craft lands on a pad under lunar gravity, past
+the keep-out zone of the surface asset on its side.
 
 The craft has slide joints x and z and a pitch hinge; controls are the set-point of its speed along
 its body axis in [−4, 2] m/s, tracked by the main engine's climb-rate loop (thrust = weight +
@@ -7,7 +8,7 @@ attitude servo's pitch set-point in [−0.8, 0.8] rad (tracked with at most 3 N 
 as a flight controller would take them. Its two legs carry touch sensors; a sensor reads the
 engine's thrust.
 
-Features (k = 4), from the simulated states and touch sensors:
+Features (k = 6), from the simulated states and touch sensors:
 
 * ``landing_error`` — at the end of the horizon, horizontal distance to the pad centre plus height
   above resting on the ground, divided by 5 m; range [0, ~6] (random controls can fly far).
@@ -16,10 +17,27 @@ Features (k = 4), from the simulated states and touch sensors:
   engine were cut then (``√(v_z² + 2 g h)``), so hovering does not dodge it; range [0, ~3].
 * ``fuel`` — mean thrust over the horizon as a share of the engine's 40 N; range [0, 1].
 * ``tilt`` — mean |pitch| (wrapped to [0, π]) divided by π/2; range [0, 2].
+* ``habitat`` — the craft's penetration into the keep-out hemisphere around the habitat (on the
+  ground to the pad's right, radius 1.1–1.4 m, where the engine's plume would blast regolith at
+  it): ``max(0, r − ‖p − c‖) / r`` for the craft's position ``p`` (x, z) and the zone's centre
+  ``c``, its mean over the horizon divided by ``ZONE_SCALE`` (0.05); 0 outside the zone. Crossing
+  the zone low costs about 1–4, several times a slow landing's fuel, so a reward that weighs it
+  goes over it (slower, dearer in fuel) and one that ignores it cuts through.
+* ``array`` — the same for the solar array's zone, to the pad's left.
 
-Instances randomize the pad position (x in [−4, 4] m) and the start distribution's draws (x in
-[−3, 3] m, height 4–6 m, pitch ±0.2 rad, at rest). True weights are drawn uniformly from the
-all-negative part of the sphere.
+The scales make the features comparable where policies differ, so that weights drawn uniformly
+from the all-negative orthant trade them off: cut through a zone (a quick, cheap descent) or fly
+over it (holding height: more fuel, a later and often harder touchdown), and how softly to land.
+
+Instances randomize the pad (x in [−0.5, 0.5] m), the two zones (centres 1.2–1.5 m from the pad's
+centre on either side, where the cheap descents from that side's starts pass; the craft resting on
+the pad stays 0.15 m outside them) and two start regions, one on each side (2–3 m from the pad,
+height 4–6 m, pitch ±0.2 rad, at rest). From a start on the right the habitat's zone is in the way
+and the array's beyond the pad; from the left, the reverse. So a demonstration from one side says
+how the demonstrator trades fuel and a soft landing against that side's zone, and nothing about
+the other's: the learner needs demos from both sides. The evaluation starts alternate sides; the
+demonstration pool's sides are a balanced random order. True weights are drawn uniformly from the
+all-negative part of the sphere: every feature is a cost.
 """
 
 from __future__ import annotations
@@ -33,7 +51,17 @@ from mjsuff.scenes.scene import Scene, load_model
 from mjsuff.scenes.simulate import Rollouts
 from mjsuff.scenes.spline import ControlSpline
 
-FEATURE_NAMES = ("landing_error", "impact", "fuel", "tilt")
+FEATURE_NAMES = ("landing_error", "impact", "fuel", "tilt", "habitat", "array")
+#: Keep-out zones, in feature order after ``tilt``: the habitat right of the pad, the array left.
+ZONES = ("habitat", "array")
+#: A zone's mean penetration (a share of its radius) that counts as 1.
+ZONE_SCALE = 0.05
+#: Range of a zone's radius (m) and of its centre's distance from the pad's centre (m).
+ZONE_RADII = (1.1, 1.4)
+ZONE_OFFSETS = (1.2, 1.5)
+#: Range of a start's horizontal distance from the pad (m) and of its height (m).
+START_OFFSETS = (2.0, 3.0)
+START_HEIGHTS = (4.0, 6.0)
 #: Height of the craft's body origin when it stands on its legs (m).
 REST_HEIGHT = 0.53
 TOUCH_THRESHOLD = 1e-6
@@ -78,18 +106,37 @@ class Lander(Scene):
                  threads: int | None = None) -> None:
         self.params = params
         self.model = load_model("lander.xml")
-        self.pad_x = float(rng.uniform(-4.0, 4.0))
+        self.pad_x = float(rng.uniform(-0.5, 0.5))
         self.model.geom("pad").pos[0] = self.pad_x
+        #: Centres (x, m; on the ground) and radii (m) of the keep-out zones: habitat, array.
+        offsets = rng.uniform(*ZONE_OFFSETS, 2)
+        self.zone_x = self.pad_x + np.array([1.0, -1.0]) * offsets
+        # The craft resting on the pad stays 0.15 m outside both zones.
+        clear = np.sqrt(offsets**2 + REST_HEIGHT**2) - 0.15
+        self.zone_radii = np.minimum(rng.uniform(*ZONE_RADII, 2), clear)
+        for name, x, r in zip(ZONES, self.zone_x, self.zone_radii, strict=True):
+            self.model.geom(f"{name}_zone").pos[0] = x
+            self.model.geom(f"{name}_zone").size[0] = r
+            self.model.geom(name).pos[0] = x
         steps = round(params.horizon / self.model.opt.timestep)
         ctrl = self.model.actuator_ctrlrange
         self.spline = ControlSpline(params.knots, steps, ctrl[:, 0], ctrl[:, 1])
-        self.starts = self.sample_starts(rng, params.eval_starts)
-        self.pool_starts = self.sample_starts(rng, params.pool_starts)
+        #: Side of each evaluation start (0 right, 1 left): alternating.
+        self.start_sides = np.arange(params.eval_starts) % 2
+        #: Side of each pool start: a balanced random order.
+        self.pool_sides = rng.permutation(np.arange(params.pool_starts) % 2)
+        self.starts = self.sample_starts(rng, params.eval_starts, self.start_sides)
+        self.pool_starts = self.sample_starts(rng, params.pool_starts, self.pool_sides)
         super().__init__(threads)
 
-    def sample_starts(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        return np.stack([rng.uniform(-3.0, 3.0, count), rng.uniform(4.0, 6.0, count),
-                         rng.uniform(-0.2, 0.2, count)], axis=1)
+    def sample_starts(self, rng: np.random.Generator, count: int,
+                      sides: np.ndarray | None = None) -> np.ndarray:
+        """``count`` starts at rest on ``sides`` (0 right, 1 left; unset: each at random):
+        ``START_OFFSETS`` from the pad, ``START_HEIGHTS`` up, pitch ±0.2 rad."""
+        sides = rng.integers(0, 2, count) if sides is None else np.asarray(sides)
+        direction = np.where(sides == 0, 1.0, -1.0)
+        return np.stack([self.pad_x + direction * rng.uniform(*START_OFFSETS, count),
+                         rng.uniform(*START_HEIGHTS, count), rng.uniform(-0.2, 0.2, count)], axis=1)
 
     def path(self, rollouts: Rollouts) -> np.ndarray:
         return rollouts.qpos[:, :, :2]
@@ -100,15 +147,18 @@ class Lander(Scene):
         return touching.any(axis=1), touching.argmax(axis=1)
 
     def step_features(self, rollouts: Rollouts, horizon: int | None = None) -> np.ndarray:
-        """Fuel and tilt are shared over the horizon's steps (their sum is the mean); ``impact``
-        falls on the first step a foot touches (or, never touched, on the last step); the landing
-        error on the last step."""
+        """Fuel, tilt and the zones are shared over the horizon's steps (their sum is the mean);
+        ``impact`` falls on the first step a foot touches (or, never touched, on the last step);
+        the landing error on the last step."""
         b, t = rollouts.qpos.shape[:2]
         steps = horizon or t
-        out = np.zeros((b, t, 4))
+        out = np.zeros((b, t, len(FEATURE_NAMES)))
         out[:, :, 2] = rollouts.sensordata[:, :, 2] / MAX_THRUST / steps
         pitch = np.angle(np.exp(1j * rollouts.qpos[:, :, 2]))  # wrapped to [-π, π]
         out[:, :, 3] = np.abs(pitch) / (np.pi / 2) / steps
+        for j, (x, r) in enumerate(zip(self.zone_x, self.zone_radii, strict=True)):
+            distance = np.hypot(rollouts.qpos[:, :, 0] - x, rollouts.qpos[:, :, 1])
+            out[:, :, 4 + j] = np.clip(r - distance, 0.0, None) / r / ZONE_SCALE / steps
         touched, first = self.touchdown(rollouts)
         # Speed just before contact (the step before the first touching step).
         rows = np.flatnonzero(touched)

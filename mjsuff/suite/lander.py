@@ -23,20 +23,27 @@ class LanderPhysics(ScenePhysics):
         x, z = self.data.qpos[0], self.data.qpos[1]
         return np.array([self.scene.pad_x - x, z - REST_HEIGHT])
 
+    def to_zones(self) -> np.ndarray:
+        """Each keep-out zone's centre (habitat, array; on the ground) minus the craft's (x, z),
+        flattened ``(4,)``."""
+        x, z = self.data.qpos[0], self.data.qpos[1]
+        return np.stack([self.scene.zone_x - x, np.full(2, -z)], axis=1).ravel()
+
     def feet_touching(self) -> np.ndarray:
         """Whether each foot (left, right) touches the ground (0 or 1)."""
         return (self.named.data.sensordata[["foot_left", "foot_right"]] > TOUCH_THRESHOLD).astype(float)
 
 
 class LanderTask(SceneTask):
-    """Land on the pad softly, frugally and upright; reward ``w·φ_t`` (landing error, impact, fuel,
-    tilt)."""
+    """Land on the pad softly, frugally and upright, clear of the keep-out zones; reward ``w·φ_t``
+    (landing error, impact, fuel, tilt, habitat zone, array zone)."""
 
     def observe(self, physics: LanderPhysics) -> OrderedDict[str, np.ndarray]:
         return OrderedDict(
             position=physics.data.qpos.copy(),
             velocity=physics.data.qvel.copy(),
             to_pad=physics.to_pad(),
+            to_zones=physics.to_zones(),
             touching=physics.feet_touching(),
         )
 
