@@ -79,6 +79,22 @@ def curve(steps: pd.DataFrame) -> str:
     )
 
 
+def coverage_by_poor_demos(steps: pd.DataFrame) -> str:
+    """Bound ≥ truth split at each replicate's first poor demo (empty if none was shown)."""
+    nevd = steps[steps["rule"] == "nevd"]
+    first = nevd[nevd["param"] == nevd["param"].min()].sort_values(["replicate", "step"])
+    if not first["poor_demo"].any():
+        return ""
+    after = first.groupby("replicate")["poor_demo"].cumsum().to_numpy() > 0
+    covered = (first["bound"] >= first["true_nevd"]).to_numpy()
+    shown = first.groupby("replicate")["poor_demo"].any()
+    return (
+        f"Poor demos shown in {shown.sum()} of {shown.size} replicates. Bound ≥ true nEVD before a "
+        f"replicate's first poor demo in {covered[~after].sum()} of {(~after).sum()} checks; from it "
+        f"on, in {covered[after].sum()} of {after.sum()}.\n"
+    )
+
+
 def rule_rows(steps: pd.DataFrame, epsilon: float) -> list[tuple[str, float, pd.DataFrame, bool]]:
     out = []
     for (rule, param), group in steps.groupby(["rule", "param"], sort=False):
@@ -154,6 +170,8 @@ def main() -> None:
     steps = load(args.run)
     print(f"{args.run}: {steps['replicate'].nunique()} replicates\n")
     print(curve(steps))
+    if poor := coverage_by_poor_demos(steps):
+        print(poor)
     print(rules(steps, args.epsilon))
     print(truth_raised(steps))
     if args.paired:
