@@ -3,7 +3,8 @@
     python benchmarks/evidence_tables.py RUN_DIR [--paired OTHER_RUN_DIR] [--epsilon 0.2]
 
 Printed as markdown: π_MAP's true nEVD by demos (Figure 2's curve: mean, CI, median; the bound's
-mean and how often it is at least the truth); every rule's F1 and demos needed (the baselines at
+mean and how often it is at least the truth; with poor demos, that split at each replicate's first
+poor demo); every rule's F1 and demos needed (the baselines at
 ``--epsilon``) with CIs and the bound rules' accuracy at their stop; how often the end-of-replicate
 truth was raised. With ``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR,
 replicate by replicate (the same instances when both runs share the seed), with a CI.
