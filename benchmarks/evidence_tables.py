@@ -4,10 +4,10 @@
 
 Printed as markdown: π_MAP's true nEVD by demos (Figure 2's curve: mean, CI, median; the bound's
 mean and how often it is at least the truth; with poor demos, that split at each replicate's first
-poor demo); every rule's F1 and demos needed (the baselines at
-``--epsilon``) with CIs and the bound rules' accuracy at their stop; how often the end-of-replicate
-truth was raised. With ``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR,
-replicate by replicate (the same instances when both runs share the seed), with a CI.
+poor demo); every rule's F1 and demos needed (the baselines at ``--epsilon``) with CIs and the
+bound rules' accuracy at their stop; how often the end-of-replicate truth was raised. With
+``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR, replicate by replicate
+(the same instances when both runs share the seed), with a CI.
 
 One observation per replicate: the bootstrap resamples replicates, never steps.
 """
@@ -49,9 +49,14 @@ def ci(values: np.ndarray, stat=np.mean, rng: np.random.Generator | None = None)
     return float(np.quantile(boot, 0.025)), float(np.quantile(boot, 0.975))
 
 
-def curve(steps: pd.DataFrame) -> str:
+def nevd_checks(steps: pd.DataFrame) -> pd.DataFrame:
+    """The nEVD rule's rows at its first threshold: one per replicate and check."""
     nevd = steps[steps["rule"] == "nevd"]
-    first = nevd[nevd["param"] == nevd["param"].min()]
+    return nevd[nevd["param"] == nevd["param"].min()]
+
+
+def curve(steps: pd.DataFrame) -> str:
+    first = nevd_checks(steps)
     lines = {"mean": [], "ci": [], "median": [], "bound": [], "covered": []}
     demos = sorted(first["step"].unique())
     for step in demos:
@@ -82,8 +87,7 @@ def curve(steps: pd.DataFrame) -> str:
 
 def coverage_by_poor_demos(steps: pd.DataFrame) -> str:
     """Bound ≥ truth split at each replicate's first poor demo (empty if none was shown)."""
-    nevd = steps[steps["rule"] == "nevd"]
-    first = nevd[nevd["param"] == nevd["param"].min()].sort_values(["replicate", "step"])
+    first = nevd_checks(steps).sort_values(["replicate", "step"])
     if not first["poor_demo"].any():
         return ""
     after = first.groupby("replicate")["poor_demo"].cumsum().to_numpy() > 0
