@@ -39,12 +39,15 @@ def measure(name: str, pairs: int, overrides: list[str], instance: int = 0) -> n
         initial=domain.sample_prior(rng, 80))
     w = post.samples
     mu_robot = domain.start_feature_expectations(domain.plan(post.map_weights))
+    t = time.perf_counter()
     v_star = domain.optimal_start_values(w, robot=mu_robot)  # the learner's, tail-refined
+    seconds = time.perf_counter() - t
     sw, mu_rand = domain.start_weights, domain.random_start_feature_expectations()
     nevd = normalized_evd(v_star @ sw, policy_values(w, mu_robot, sw), policy_values(w, mu_rand, sw))
     tail = np.argsort(-nevd)[: len(w) // 10]  # the top 10%
     far = np.degrees(np.arccos(np.clip(w[tail] @ domain.true_weights, -1, 1)))
-    print(f"{name}: tail of {len(tail)} samples, {far.min():.0f}–{far.max():.0f}° from w*")
+    print(f"{name}: tail of {len(tail)} samples, {far.min():.0f}–{far.max():.0f}° from w*; the "
+          f"learner's V* took {seconds:.1f} s")
     pairs = rng.choice(len(tail) * len(sw), size=pairs, replace=False)
     samples, starts = tail[pairs // len(sw)], pairs % len(sw)
     warm = np.stack([domain.library.arrays(int(s))[1][domain.library.best(int(s), w[i][None])[1][0]]

@@ -175,6 +175,29 @@ def test_optimal_values_never_fall_below_a_planned_policy(case):
     assert np.all(v_opt >= w @ domain.start_feature_expectations(policy).T - 1e-12)
 
 
+def test_plan_samples_plans_the_top_of_the_tail_once_and_raises_its_v_star(case):
+    """``planning.plan_samples`` (issue #17): the samples with the largest nEVD are planned one by
+    one with π's budget from every evaluation start; their V* rises above the groups' refinement
+    alone, and asking again for the same samples simulates nothing new."""
+    domain, _ = case
+    rng = np.random.default_rng(11)
+    robot = domain.start_feature_expectations(domain.plan(domain.sample_prior(rng, 1)[0]))
+    weights = domain.sample_prior(rng, 40)
+    base = copy.deepcopy(domain)
+    base.planning = base.planning.model_copy(update={"polish_rounds": 0, "refine_rounds": 0})
+    planned = copy.deepcopy(base)
+    planned.planning = planned.planning.model_copy(update={"plan_samples": 3})
+    v_base = base.optimal_start_values(weights, robot=robot)
+    top = planned._tail(weights, robot, 3)
+    v_planned = planned.optimal_start_values(weights, robot=robot)
+    for start in range(len(domain.scene.starts)):
+        assert ((planned._refined[start] @ weights[top].T).max(axis=0) > 1 - 1e-12).all()
+    assert (v_planned[top] >= v_base[top] - 1e-12).all() and (v_planned[top] > v_base[top]).any()
+    sizes = [planned.library.size(s) for s in range(len(domain.scene.starts))]
+    planned.optimal_start_values(weights, robot=robot)
+    assert [planned.library.size(s) for s in range(len(domain.scene.starts))] == sizes
+
+
 def test_tolerances_define_unchanged_and_matching(case):
     domain, demos = case
     policy = domain.plan(domain.true_weights)

@@ -46,7 +46,10 @@ trajectories, demos), a lower bound on ``V*`` that costs one matrix product, the
 the bound is decided: given the robot's policy, only the samples in the upper tail of nEVD (the
 ``tail_share`` largest) are refined, grouped by the library trajectory that is best for them; each
 group is re-planned from that trajectory (warm-started, short budget) for the group's mean
-direction, everything simulated joins the library; then, for every tail sample from every
+direction, everything simulated joins the library; then the ``plan_samples`` samples with the
+largest nEVD are each planned by themselves with π's budget from every evaluation start (a
+group's mean direction was 11–34° from the tail samples it served on a lander instance, whose optima move
+with the direction: issue #17); then, for every tail sample from every
 evaluation start, a local quadratic model of the value around the library's best proposes where
 the sample's own optimum is (``mjsuff.scenes.surrogate``: a few simulated rollouts per sample, in
 ``polish_rounds`` rounds, the tail re-ranked each round). The answer is the library maximum
@@ -328,22 +331,45 @@ class SceneDomain(Domain):
         for _ in range(self.planning.refine_rounds if refine else 0):
             if not self._refine(weights[self._tail(weights, robot)], range(s)):
                 break
+        if refine and self.planning.plan_samples:
+            self._plan_samples(weights[self._tail(weights, robot, self.planning.plan_samples)])
         for _ in range(self.planning.polish_rounds if refine else 0):
             focus = weights[self._tail(weights, robot)]
             self._polish(self.library, np.repeat(np.arange(s), len(focus)), np.tile(focus, (s, 1)), 1)
         return self._library_values(weights, range(s))
 
-    def _tail(self, weights: np.ndarray, robot: np.ndarray | None) -> np.ndarray:
-        """Indices of the samples in the upper ``tail_share`` of nEVD against the robot's feature
-        expectations ``robot`` by the library's values now (all samples without a robot)."""
+    def _tail(self, weights: np.ndarray, robot: np.ndarray | None,
+              count: int | None = None) -> np.ndarray:
+        """Indices of the ``count`` samples (default: the upper ``tail_share``) with the largest
+        nEVD against the robot's feature expectations ``robot`` by the library's values now (all
+        samples without a robot)."""
         n = len(weights)
         if robot is None or n == 1:
             return np.arange(n)
         sw = self.start_weights
         v_opt = self._library_values(weights, range(len(self.scene.starts))) @ sw
         nevd = normalized_evd(v_opt, weights @ (sw @ robot), weights @ (sw @ self._random_mu))
-        count = max(1, int(np.ceil(self.planning.tail_share * n)))
+        if count is None:
+            count = max(1, int(np.ceil(self.planning.tail_share * n)))
         return np.argsort(-nevd, kind="stable")[:count]
+
+    def _plan_samples(self, weights: np.ndarray) -> None:
+        """Plan each of ``weights`` from every evaluation start with π's budget, warm-started
+        from the library, into the library; a (sample, start) within ``revisit_cosine`` of a
+        direction already refined or planned there is skipped."""
+        problems, directions = [], []
+        for start in range(len(self.scene.starts)):
+            for direction in normalize(weights):
+                done = self._refined[start]
+                if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
+                    continue
+                problems.append(start)
+                directions.append(direction)
+                self._refined[start] = np.concatenate([done, direction[None]])
+        if problems:
+            starts, directions_ = np.array(problems), np.array(directions)
+            warm = self._library_warm(self.library, starts, directions_)
+            self.planner.plan(starts, directions_, self.rng, warm_knots=warm)
 
     def _refine(self, weights: np.ndarray, starts) -> bool:
         """One refinement round for ``weights`` from ``starts``; False when nothing was new."""
