@@ -10,6 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
+#: Most entries of one weights × features product in ``best`` (2^25 doubles: 256 MiB); larger
+#: batches of weights are scored in slices (a library grows by every rollout simulated).
+MAX_PRODUCT = 2**25
+
 
 class TrajectoryLibrary:
     """Features ``(n, k)`` and knots ``(n, K, nu)`` of valid trajectories, one growing set per start."""
@@ -66,6 +70,10 @@ class TrajectoryLibrary:
         if not len(features):
             n = len(weights)
             return np.full(n, -np.inf), np.full(n, -1)
-        values = weights @ features.T
-        index = values.argmax(axis=1)
-        return values[np.arange(len(weights)), index], index
+        rows = max(1, MAX_PRODUCT // len(features))  # weights per product, bounding its memory
+        value, index = np.empty(len(weights)), np.empty(len(weights), dtype=int)
+        for lo in range(0, len(weights), rows):
+            values = weights[lo : lo + rows] @ features.T
+            index[lo : lo + rows] = values.argmax(axis=1)
+            value[lo : lo + rows] = values[np.arange(len(values)), index[lo : lo + rows]]
+        return value, index
