@@ -48,7 +48,7 @@ the bound is decided: given the robot's policy, only the samples in the upper ta
 group is re-planned from that trajectory (warm-started, short budget) for the group's mean
 direction, everything simulated joins the library; then the ``plan_samples`` samples with the
 largest nEVD are each planned by themselves with π's budget from every evaluation start (a
-group's mean direction was 11–34° from the tail samples it served on a lander instance, whose optima move
+group's mean direction was 11–35° from the tail samples it served on lander instances, whose optima move
 with the direction: issue #17); then, for every tail sample from every
 evaluation start, a local quadratic model of the value around the library's best proposes where
 the sample's own optimum is (``mjsuff.scenes.surrogate``: a few simulated rollouts per sample, in
