@@ -48,9 +48,9 @@ the bound is decided: given the robot's policy, only the samples in the upper ta
 group is re-planned from that trajectory (warm-started, short budget) for the group's mean
 direction, everything simulated joins the library; then the ``plan_samples`` samples with the
 largest nEVD are each planned by themselves with π's budget from every evaluation start (a
-group's mean direction was 11–35° from the tail samples it served on lander instances, whose optima move
-with the direction: issue #17); then, for every tail sample from every
-evaluation start, a local quadratic model of the value around the library's best proposes where
+group's mean direction was 11–35° from the tail samples it served on lander instances, whose
+optima move with the direction: issue #17); then, for every tail sample from every evaluation
+start, a local quadratic model of the value around the library's best proposes where
 the sample's own optimum is (``mjsuff.scenes.surrogate``: a few simulated rollouts per sample, in
 ``polish_rounds`` rounds, the tail re-ranked each round). The answer is the library maximum
 again, so it never drops below it. Plans (π for a reward) are polished the same way for their
@@ -360,16 +360,22 @@ class SceneDomain(Domain):
         problems, directions = [], []
         for start in range(len(self.scene.starts)):
             for direction in normalize(weights):
-                done = self._refined[start]
-                if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
-                    continue
-                problems.append(start)
-                directions.append(direction)
-                self._refined[start] = np.concatenate([done, direction[None]])
+                if self._claim(start, direction):
+                    problems.append(start)
+                    directions.append(direction)
         if problems:
             starts, directions_ = np.array(problems), np.array(directions)
             warm = self._library_warm(self.library, starts, directions_)
             self.planner.plan(starts, directions_, self.rng, warm_knots=warm)
+
+    def _claim(self, start: int, direction: np.ndarray) -> bool:
+        """Record ``direction`` as refined or planned from ``start``; False, recording nothing,
+        when one within ``revisit_cosine`` of it already is."""
+        done = self._refined[start]
+        if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
+            return False
+        self._refined[start] = np.concatenate([done, direction[None]])
+        return True
 
     def _refine(self, weights: np.ndarray, starts) -> bool:
         """One refinement round for ``weights`` from ``starts``; False when nothing was new."""
@@ -379,12 +385,9 @@ class SceneDomain(Domain):
             index, counts = np.unique(best, return_counts=True)
             for j in index[np.argsort(-counts, kind="stable")][: self.planning.refine_groups]:
                 direction = normalize(weights[best == j].mean(axis=0))
-                done = self._refined[start]
-                if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
-                    continue
-                problems.append((start, j))
-                groups.append(direction)
-                self._refined[start] = np.concatenate([done, direction[None]])
+                if self._claim(start, direction):
+                    problems.append((start, j))
+                    groups.append(direction)
         if not problems:
             return False
         starts_ = np.array([p[0] for p in problems])
