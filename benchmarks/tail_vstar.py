@@ -76,6 +76,16 @@ def measure(name: str, pairs: int, overrides: list[str], instance: int = 0,
     return gap  # a negative difference (the learner's library beating the reference) counts as 0
 
 
+def budget(text: str) -> tuple[int, int]:
+    """``"16x24"`` -> ``(16, 24)``: a CMA-ES population (≥ 4) and its generations (≥ 1)."""
+    parts = text.split("x")
+    if len(parts) != 2 or not all(p.isdigit() for p in parts) or int(parts[0]) < 4 \
+            or not int(parts[1]):
+        raise argparse.ArgumentTypeError(
+            f"expected POPxGEN with POP >= 4 and GEN >= 1, e.g. 16x24; got {text!r}")
+    return int(parts[0]), int(parts[1])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
@@ -84,11 +94,11 @@ def main() -> None:
                         help="replicates 0..N-1's instances, each with --pairs pairs")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override a scenario key, e.g. domain.params.planning.refine_rounds=2")
-    parser.add_argument("--own-budgets", nargs="*", default=[], metavar="POPxGEN",
+    parser.add_argument("--own-budgets", nargs="*", default=[], metavar="POPxGEN", type=budget,
                         help="also plan each pair's own direction with these CMA-ES budgets, "
                              "e.g. 16x24 24x48 (a diagnostic of where the gap comes from)")
     args = parser.parse_args()
-    budgets = tuple(tuple(int(x) for x in b.split("x")) for b in args.own_budgets)
+    budgets = tuple(args.own_budgets)
     for name in args.scenes:
         t = time.perf_counter()
         gap = np.concatenate([measure(name, args.pairs, args.set, i, budgets)
