@@ -22,7 +22,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mjsuff.bounds import normalized_evd, policy_values, upper_var_bound
-from mjsuff.experiment.replicate import make_instance
+from mjsuff.experiment.replicate import make_instance, nevd_bound_index
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.posterior import sample_posterior
 
@@ -48,7 +48,9 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     mu = domain.start_feature_expectations(policy)
     t["planning"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    v_opt = domain.optimal_start_values(post.samples, robot=mu) @ domain.start_weights
+    bound_index = nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method)
+    v_opt = domain.optimal_start_values(post.samples, robot=mu, bound_index=bound_index) \
+        @ domain.start_weights
     t["V*"] = time.perf_counter() - t0
     sw, w = domain.start_weights, post.samples
     nevd = normalized_evd(v_opt, policy_values(w, mu, sw),

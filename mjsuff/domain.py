@@ -12,6 +12,7 @@ for ``S`` evaluation starts; the start distribution ``start_weights`` (shape ``(
 from __future__ import annotations
 
 import abc
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -22,6 +23,10 @@ if TYPE_CHECKING:
 
 Policy = Any
 """A domain's robot policy: opaque above the seam (an action per state for tabular domains)."""
+BoundIndex = Callable[[np.ndarray], int]
+"""Given per-sample nEVD values ``(N,)``, the 0-based index (in ascending order) of the order
+statistic the α-VaR bound takes (``mjsuff.bounds.var_bound.var_bound_index`` for their effective
+size)."""
 
 
 @dataclass(frozen=True)
@@ -77,12 +82,15 @@ class Domain(abc.ABC):
         """Discounted feature expectations of ``policy`` from each evaluation start -> ``(S, k)``."""
 
     @abc.abstractmethod
-    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None) -> np.ndarray:
+    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None,
+                             bound_index: BoundIndex | None = None) -> np.ndarray:
         """Optimal values ``V*_w(s)`` for a batch ``(N, k)`` of weights -> ``(N, S)``.
 
         Must never underestimate the optimum (an underestimate makes the bound optimistic).
-        ``robot`` (the robot policy's feature expectations ``(S, k)``) lets an approximate
-        domain spend its effort where the nEVD bound is decided; exact domains ignore it.
+        ``robot`` (the robot policy's feature expectations ``(S, k)``) and ``bound_index`` (which
+        order statistic of the per-sample nEVD the bound takes, given those values) let an
+        approximate domain spend its effort where the nEVD bound is decided; exact domains
+        ignore them.
         """
 
     @abc.abstractmethod

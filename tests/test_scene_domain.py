@@ -198,6 +198,25 @@ def test_plan_samples_plans_the_top_of_the_tail_once_and_raises_its_v_star(case)
     assert [planned.library.size(s) for s in range(len(domain.scene.starts))] == sizes
 
 
+def test_plan_samples_plans_from_the_bound_down(case, monkeypatch):
+    """``plan_samples`` plans the samples that can move the bound (issue #17): the one at the
+    order statistic the bound takes and those next below it; the samples above it, which stay
+    above it however much they rise, are not planned."""
+    domain, _ = case
+    rng = np.random.default_rng(12)
+    robot = domain.start_feature_expectations(domain.plan(domain.sample_prior(rng, 1)[0]))
+    weights = domain.sample_prior(rng, 40)
+    probe = copy.deepcopy(domain)
+    probe.planning = probe.planning.model_copy(update={
+        "polish_rounds": 0, "refine_rounds": 0, "plan_samples": 3})
+    planned = []
+    monkeypatch.setattr(probe, "_plan_samples", lambda w: planned.append(w.copy()))
+    order = np.argsort(-probe._nevd(weights, robot), kind="stable")
+    probe.optimal_start_values(weights, robot=robot, bound_index=lambda nevd: 30)  # 10th largest
+    assert len(planned) == 1
+    np.testing.assert_array_equal(planned[0], weights[order[9:12]])
+
+
 def test_tolerances_define_unchanged_and_matching(case):
     domain, demos = case
     policy = domain.plan(domain.true_weights)

@@ -14,7 +14,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from mjsuff.bounds.regret import normalized_evd, percent_improvement, policy_values
-from mjsuff.bounds.var_bound import QuantileMethod, lower_var_bound, upper_var_bound
+from mjsuff.bounds.var_bound import QuantileMethod, lower_var_bound, upper_var_bound, var_bound_index
 from mjsuff.domain import Demo, Domain, Policy
 from mjsuff.domains import get_domain
 from mjsuff.experiment.scenario import Scenario
@@ -73,6 +73,14 @@ def seed_sequence(scenario: Scenario, replicate: int, stream: str, *key: int) ->
 def stream_seed(seed: int, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
     """``seed_sequence`` from the scenario's seed alone."""
     return np.random.SeedSequence(seed, spawn_key=(replicate, _STREAMS[stream], *key))
+
+
+def nevd_bound_index(post: Posterior, alpha: float, delta: float,
+                     method: QuantileMethod = "normal") -> Callable[[np.ndarray], int]:
+    """The order statistic the nEVD bound takes, as a function of the per-sample values (their
+    quantile ESS sets it): what ``Domain.optimal_start_values`` refines toward."""
+    return lambda nevd: var_bound_index(len(nevd), alpha, delta, method,
+                                        post.effective_size(nevd, alpha))
 
 
 def posterior_bounds(post: Posterior, nevd: np.ndarray, piob: np.ndarray, alpha: float,
@@ -226,7 +234,8 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         post, map_policy = posterior_excluding(frozenset())
         w = post.samples
         mu_robot = domain.start_feature_expectations(map_policy)
-        v_opt_starts = domain.optimal_start_values(w, robot=mu_robot)
+        v_opt_starts = domain.optimal_start_values(w, robot=mu_robot, bound_index=nevd_bound_index(
+            post, suff.alpha, suff.delta, suff.quantile_method))
         v_opt = v_opt_starts @ sw
         v_robot = policy_values(w, mu_robot, sw)
         nevd = normalized_evd(v_opt, v_robot, policy_values(w, mu_rand, sw))

@@ -28,9 +28,10 @@ class PlanningSettings(BaseModel):
         description="V*: the share of samples with the largest nEVD whose V* is refined (the "
                     "upper tail decides the bound)")
     plan_samples: int = Field(
-        0, ge=0, description="V*: this many samples with the largest nEVD (after the groups' "
-                             "refinement) planned one by one with π's budget from every "
-                             "evaluation start, warm-started from the library; 0: none")
+        0, ge=0, description="V*: this many samples that can move the bound (from its order "
+                             "statistic down, after the groups' refinement) planned one "
+                             "by one with π's budget from every evaluation start, warm-started "
+                             "from the library; 0: none")
     polish_rounds: int = Field(
         2, ge=0, description="V*: rounds of the local quadratic model's proposals for the nEVD "
                              "tail's samples from every evaluation start, after refinement "
