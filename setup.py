@@ -7,5 +7,6 @@ mjsuff/ ships without editing a list.
 
 from setuptools import find_namespace_packages, setup
 
-setup(packages=[*find_namespace_packages(include=["mjsuff", "mjsuff.*"]),
-                "mjsuff.models", "mjsuff.scenarios"])
+setup(
+    packages=[*find_namespace_packages(include=["mjsuff", "mjsuff.*"]), "mjsuff.models", "mjsuff.scenarios"]
+)

@@ -28,8 +28,10 @@ from mjsuff.scenes.lander import Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
 from mjsuff.scenes.planner import SamplingPlanner
 
-SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
-          "lander": (Lander, LanderParams, LanderExpert)}
+SCENES = {
+    "lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
+    "lander": (Lander, LanderParams, LanderExpert),
+}
 RANDOM = 64
 
 
@@ -50,15 +52,25 @@ def bench(name: str, instances: int, starts: int) -> dict:
             errors.append(demo.tracking_error)
             candidates.append(demo.candidates)
             failures.append(demo.ik_failures)
-        planned = SamplingPlanner(scene, scene.planner_config).plan(
-            np.arange(starts), np.tile(w, (starts, 1)), np.random.default_rng(0)).values
-        _, feats = scene.simulate(np.repeat(scene.starts, RANDOM, axis=0),
-                                  scene.spline.uniform(np.random.default_rng(1), RANDOM * starts))
+        planned = (
+            SamplingPlanner(scene, scene.planner_config)
+            .plan(np.arange(starts), np.tile(w, (starts, 1)), np.random.default_rng(0))
+            .values
+        )
+        _, feats = scene.simulate(
+            np.repeat(scene.starts, RANDOM, axis=0),
+            scene.spline.uniform(np.random.default_rng(1), RANDOM * starts),
+        )
         v_rand = np.nanmean(feats.reshape(starts, RANDOM, -1), axis=1) @ w
         values = np.array(values)
         gaps.extend((planned - values) / (np.maximum(planned, values) - v_rand))
-    return {"gaps": np.array(gaps), "errors": np.array(errors), "seconds": np.array(seconds),
-            "candidates": np.array(candidates), "failures": np.array(failures)}
+    return {
+        "gaps": np.array(gaps),
+        "errors": np.array(errors),
+        "seconds": np.array(seconds),
+        "candidates": np.array(candidates),
+        "failures": np.array(failures),
+    }
 
 
 def main() -> None:
@@ -71,13 +83,17 @@ def main() -> None:
             r = bench(name, args.instances, args.starts)
             g, e = r["gaps"], r["errors"]
             q = np.percentile(g, [0, 25, 50, 75, 100])
-            print(f"{name}: {len(g)} demos, {1 / r['seconds'].mean():.2f} demos/s "
-                  f"({r['seconds'].mean():.2f} s each); "
-                  f"candidates {r['candidates'].mean():.0f}/demo, "
-                  f"IK failures {r['failures'].mean():.1f}/demo")
-            print(f"  gap to planner (share of V_plan - V_rand): mean {g.mean():+.3f}; "
-                  f"min/25%/median/75%/max {' / '.join(f'{x:+.3f}' for x in q)}; "
-                  f"expert better on {np.mean(g < 0):.0%}")
+            print(
+                f"{name}: {len(g)} demos, {1 / r['seconds'].mean():.2f} demos/s "
+                f"({r['seconds'].mean():.2f} s each); "
+                f"candidates {r['candidates'].mean():.0f}/demo, "
+                f"IK failures {r['failures'].mean():.1f}/demo"
+            )
+            print(
+                f"  gap to planner (share of V_plan - V_rand): mean {g.mean():+.3f}; "
+                f"min/25%/median/75%/max {' / '.join(f'{x:+.3f}' for x in q)}; "
+                f"expert better on {np.mean(g < 0):.0%}"
+            )
             print(f"  tracking error: median {np.median(e) * 1000:.1f} mm, max {e.max() * 1000:.1f} mm")
 
 

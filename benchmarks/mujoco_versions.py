@@ -47,8 +47,13 @@ def measure(names: list[str], starts: int) -> dict:
         w = -np.abs(random_unit_vectors(np.random.default_rng(2), 1, scene.num_features))[0]
         planner, plan_time = planner_steps_per_second(domain, w)
         raw = max(raw, raw_steps_per_second(scene))  # the machine's state may change in between
-        result["scenes"][name] = {"raw": raw, "planner": planner, "share": planner / raw,
-                                  "plan_time": plan_time, "threads": scene.simulator.threads}
+        result["scenes"][name] = {
+            "raw": raw,
+            "planner": planner,
+            "share": planner / raw,
+            "plan_time": plan_time,
+            "threads": scene.simulator.threads,
+        }
     return result
 
 
@@ -73,39 +78,57 @@ def drive(interpreters: list[str], rounds: int, names: list[str], starts: int) -
             result = run_worker(python, names, starts)
             version = result["mujoco"]
             runs.setdefault(version, []).append(result)
-            cells = ", ".join(f"{n} raw {s['raw'] / 1e3:,.0f}k planner {s['planner'] / 1e3:,.0f}k "
-                              f"({s['share']:.0%})" for n, s in result["scenes"].items())
-            print(f"round {r + 1}, mujoco {version} ({python}, {time.perf_counter() - t:.0f} s): "
-                  f"{cells}", flush=True)
+            cells = ", ".join(
+                f"{n} raw {s['raw'] / 1e3:,.0f}k planner {s['planner'] / 1e3:,.0f}k ({s['share']:.0%})"
+                for n, s in result["scenes"].items()
+            )
+            print(
+                f"round {r + 1}, mujoco {version} ({python}, {time.perf_counter() - t:.0f} s): {cells}",
+                flush=True,
+            )
     print(f"load average after: {load()}")
     if len(runs) < len(interpreters):
         print("warning: two interpreters reported the same mujoco version")
     versions = list(runs)
     threads = {s["threads"] for rs in runs.values() for r in rs for s in r["scenes"].values()}
-    print(f"\nmedian over {rounds} rounds ({starts} evaluation starts; rollout threads "
-          f"{', '.join(map(str, sorted(threads)))}):")
+    print(
+        f"\nmedian over {rounds} rounds ({starts} evaluation starts; rollout threads "
+        f"{', '.join(map(str, sorted(threads)))}):"
+    )
     header = f"{'scene':<14}{'mujoco':<12}{'raw steps/s':>14}{'planner steps/s':>18}{'share':>8}"
     print(header)
     print("-" * len(header))
     for name in names:
-        med = {v: {key: statistics.median(r["scenes"][name][key] for r in runs[v])
-                   for key in ("raw", "planner", "share")} for v in versions}
+        med = {
+            v: {
+                key: statistics.median(r["scenes"][name][key] for r in runs[v])
+                for key in ("raw", "planner", "share")
+            }
+            for v in versions
+        }
         for v in versions:
             m = med[v]
-            print(f"{name:<14}{v:<12}{m['raw'] / 1e3:>13,.0f}k{m['planner'] / 1e3:>17,.0f}k"
-                  f"{m['share']:>8.0%}")
+            print(
+                f"{name:<14}{v:<12}{m['raw'] / 1e3:>13,.0f}k{m['planner'] / 1e3:>17,.0f}k{m['share']:>8.0%}"
+            )
         if len(versions) == 2:
             a, b = (med[v] for v in versions)
-            print(f"{name:<14}{'ratio':<12}{a['raw'] / b['raw']:>14.3f}"
-                  f"{a['planner'] / b['planner']:>18.3f}{a['share'] / b['share']:>8.3f}")
+            print(
+                f"{name:<14}{'ratio':<12}{a['raw'] / b['raw']:>14.3f}"
+                f"{a['planner'] / b['planner']:>18.3f}{a['share'] / b['share']:>8.3f}"
+            )
     if len(versions) == 2:
         print(f"(ratio = {versions[0]} / {versions[1]})")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--interpreters", nargs="+", metavar="PYTHON",
-                        help="run the measurement in each, alternately, and print the table")
+    parser.add_argument(
+        "--interpreters",
+        nargs="+",
+        metavar="PYTHON",
+        help="run the measurement in each, alternately, and print the table",
+    )
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--scenes", nargs="+", choices=sorted(SCENES), default=list(SCENES))
     parser.add_argument("--starts", type=int, default=16)

@@ -52,8 +52,11 @@ def main() -> None:
     for seed in args.seeds:
         t = time.perf_counter()
         rows = measure(args.scene, seed, args.random)
-        print(f"{args.scene} seed {seed} ({time.perf_counter() - t:.0f} s): "
-              + ", ".join(f"{k} {v:.3f}" for k, v in rows.items()), flush=True)
+        print(
+            f"{args.scene} seed {seed} ({time.perf_counter() - t:.0f} s): "
+            + ", ".join(f"{k} {v:.3f}" for k, v in rows.items()),
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

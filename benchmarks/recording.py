@@ -34,9 +34,12 @@ print(json.dumps({"seconds": time.perf_counter() - t,
 
 
 def run(scenario: str, replicates: int, out: Path, record: bool, sets: list[str]) -> dict:
-    done = subprocess.run([sys.executable, "-c", CHILD, scenario, str(replicates), str(out),
-                           "1" if record else "0", *sets], capture_output=True, text=True,
-                          check=True)
+    done = subprocess.run(
+        [sys.executable, "-c", CHILD, scenario, str(replicates), str(out), "1" if record else "0", *sets],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     result = json.loads(done.stdout.strip().splitlines()[-1])
     steps = pd.read_parquet(out / "steps.parquet")
     result["demo_steps"] = int(steps.groupby("replicate")["step"].nunique().sum())
@@ -58,15 +61,23 @@ def main() -> None:
         long = run(args.scenario, 4 * args.replicates, tmp / "long", True, args.set)
         long_plain = run(args.scenario, 4 * args.replicates, tmp / "long-plain", False, args.set)
     print(f"{args.scenario}, {args.replicates} replicates ({plain['demo_steps']} demo steps):")
-    print(f"  without recording {plain['seconds']:.1f} s, with {recorded['seconds']:.1f} s "
-          f"({recorded['seconds'] / plain['seconds'] - 1:+.0%})")
-    print(f"  recording {recorded['bytes'] / 1e6:.2f} MB, "
-          f"{recorded['bytes'] / recorded['demo_steps'] / 1e3:.1f} kB per demo step")
-    print(f"  peak memory: {plain['peak_mb']:.0f} MB without, {recorded['peak_mb']:.0f} MB with "
-          f"(recording +{recorded['peak_mb'] - plain['peak_mb']:.0f} MB)")
-    print(f"  4x longer ({long['demo_steps']} steps, {long['bytes'] / 1e6:.1f} MB file): "
-          f"{long_plain['peak_mb']:.0f} MB without, {long['peak_mb']:.0f} MB with (recording "
-          f"+{long['peak_mb'] - long_plain['peak_mb']:.0f} MB)")
+    print(
+        f"  without recording {plain['seconds']:.1f} s, with {recorded['seconds']:.1f} s "
+        f"({recorded['seconds'] / plain['seconds'] - 1:+.0%})"
+    )
+    print(
+        f"  recording {recorded['bytes'] / 1e6:.2f} MB, "
+        f"{recorded['bytes'] / recorded['demo_steps'] / 1e3:.1f} kB per demo step"
+    )
+    print(
+        f"  peak memory: {plain['peak_mb']:.0f} MB without, {recorded['peak_mb']:.0f} MB with "
+        f"(recording +{recorded['peak_mb'] - plain['peak_mb']:.0f} MB)"
+    )
+    print(
+        f"  4x longer ({long['demo_steps']} steps, {long['bytes'] / 1e6:.1f} MB file): "
+        f"{long_plain['peak_mb']:.0f} MB without, {long['peak_mb']:.0f} MB with (recording "
+        f"+{long['peak_mb'] - long_plain['peak_mb']:.0f} MB)"
+    )
 
 
 if __name__ == "__main__":

@@ -43,13 +43,19 @@ def main() -> None:
             if name == "ray":
                 backend.shutdown()
             steps = pd.read_parquet(Path(tmp) / name / "steps.parquet")
-            same = "reference" if reference is None else (
-                "identical" if steps.equals(reference) else "DIFFERENT")
+            same = (
+                "reference"
+                if reference is None
+                else ("identical" if steps.equals(reference) else "DIFFERENT")
+            )
             reference = steps if reference is None else reference
             rate = args.replicates / elapsed * 60
             serial_rate = serial_rate or rate
-            print(f"  {backend.describe():32s} {elapsed:7.1f} s  {rate:7.2f} replicates/min  "
-                  f"{rate / serial_rate:4.2f}x serial  results {same}", flush=True)
+            print(
+                f"  {backend.describe():32s} {elapsed:7.1f} s  {rate:7.2f} replicates/min  "
+                f"{rate / serial_rate:4.2f}x serial  results {same}",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

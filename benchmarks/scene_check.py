@@ -40,8 +40,11 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     t0 = time.perf_counter()
     post = sample_posterior(
         lambda w: domain.log_prior(w) + domain.log_likelihood(w, demos, beta),
-        domain.num_features, scenario.sampler(), rng,
-        initial=domain.sample_prior(rng, 4 * scenario.sampler().chains))
+        domain.num_features,
+        scenario.sampler(),
+        rng,
+        initial=domain.sample_prior(rng, 4 * scenario.sampler().chains),
+    )
     t["sampling"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     policy = domain.plan(post.map_weights)
@@ -49,14 +52,17 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     t["planning"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     bound_index = nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method)
-    v_opt = domain.optimal_start_values(post.samples, robot=mu, bound_index=bound_index) \
-        @ domain.start_weights
+    v_opt = (
+        domain.optimal_start_values(post.samples, robot=mu, bound_index=bound_index) @ domain.start_weights
+    )
     t["V*"] = time.perf_counter() - t0
     sw, w = domain.start_weights, post.samples
-    nevd = normalized_evd(v_opt, policy_values(w, mu, sw),
-                          policy_values(w, domain.random_start_feature_expectations(), sw))
-    t["bound"] = upper_var_bound(nevd, suff.alpha, suff.delta, suff.quantile_method,
-                                 post.effective_size(nevd, suff.alpha))
+    nevd = normalized_evd(
+        v_opt, policy_values(w, mu, sw), policy_values(w, domain.random_start_feature_expectations(), sw)
+    )
+    t["bound"] = upper_var_bound(
+        nevd, suff.alpha, suff.delta, suff.quantile_method, post.effective_size(nevd, suff.alpha)
+    )
     t["steps"] = post.steps
     return t
 
@@ -67,8 +73,7 @@ def main() -> None:
     parser.add_argument("--starts", type=int, default=16)
     args = parser.parse_args()
     for name in args.scenes:
-        scenario = load_scenario(SCENARIOS / f"{name}.toml",
-                                 [f"domain.params.eval_starts={args.starts}"])
+        scenario = load_scenario(SCENARIOS / f"{name}.toml", [f"domain.params.eval_starts={args.starts}"])
         with threadpool_limits(limits=1):
             t0 = time.perf_counter()
             domain = make_instance(scenario, 0)
@@ -80,16 +85,22 @@ def main() -> None:
             demo_time = time.perf_counter() - t0
             first = check(domain, demos[:NUM_DEMOS], scenario, np.random.default_rng(2))
             second = check(domain, demos, scenario, np.random.default_rng(3))
-        print(f"\n{name}: {args.starts} evaluation starts, {NUM_DEMOS} demos, "
-              f"{scenario.posterior.num_samples} samples")
-        print(f"  instance {build:.1f} s (random trajectories and seed plans); "
-              f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)")
+        print(
+            f"\n{name}: {args.starts} evaluation starts, {NUM_DEMOS} demos, "
+            f"{scenario.posterior.num_samples} samples"
+        )
+        print(
+            f"  instance {build:.1f} s (random trajectories and seed plans); "
+            f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)"
+        )
         for label, t in (("first check", first), ("warm check (11th demo)", second)):
             parts = {k: v for k, v in t.items() if k not in ("bound", "steps")}
             total = sum(parts.values())
             shares = ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in parts.items())
-            print(f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}; "
-                  f"{t['steps']} sampler steps per chain")
+            print(
+                f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}; "
+                f"{t['steps']} sampler steps per chain"
+            )
 
 
 if __name__ == "__main__":

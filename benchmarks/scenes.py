@@ -54,8 +54,7 @@ def raw_steps_per_second(scene, trajectories: int = 2048, repeats: int = 5) -> f
     rng = np.random.default_rng(0)
     starts = scene.starts[rng.integers(len(scene.starts), size=trajectories)]
     anchor = scene.anchor(starts) if scene.spline.anchored else None
-    controls = np.ascontiguousarray(scene.spline.controls(scene.spline.uniform(rng, trajectories),
-                                                          anchor))
+    controls = np.ascontiguousarray(scene.spline.controls(scene.spline.uniform(rng, trajectories), anchor))
     state = np.ascontiguousarray(scene.start_states(starts))
     datas = scene.simulator._datas
     best = np.inf
@@ -80,10 +79,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rewards", type=int, default=500)
     parser.add_argument("--starts", type=int, default=16)
-    parser.add_argument("--subset", type=int, default=24, help="(reward, start) pairs planned "
-                                                                "from scratch")
-    parser.add_argument("--quality", type=int, default=2,
-                        help="reward vectors for the planner-vs-10x comparison")
+    parser.add_argument("--subset", type=int, default=24, help="(reward, start) pairs planned from scratch")
+    parser.add_argument(
+        "--quality", type=int, default=2, help="reward vectors for the planner-vs-10x comparison"
+    )
     parser.add_argument("--scenes", nargs="+", choices=sorted(SCENES), default=list(SCENES))
     args = parser.parse_args()
     for name in args.scenes:
@@ -115,32 +114,45 @@ def main() -> None:
         gap = (full - fast[w_idx, s_idx]) / (best - v_rand)
         print(f"{name}: {scene.spline.num_steps} steps per trajectory, {args.starts} starts")
         print(f"  raw mujoco.rollout: {raw:,.0f} steps/s")
-        print(f"  instance set-up (random trajectories + seed plans for 8 reward directions into "
-              f"the library): {build_time:.1f} s")
-        print(f"  planner (budget {domain.planner.config.budget} rollouts per start): "
-              f"{planner_rate:,.0f} steps/s = {planner_rate / raw:.0%} of raw "
-              f"({plan_time:.1f} s for {args.starts} starts)")
-        print(f"  optimal_values {args.rewards} x {args.starts}: library + refinement "
-              f"{fast_time:.1f} s; per-pair planning {full_time:,.0f} s (scaled from "
-              f"{args.subset} pairs in {subset_time:.1f} s) -> {full_time / fast_time:.0f}x faster")
-        print(f"  value gap (per-pair planning − library) / (V* − V_rand) on {args.subset} pairs: "
-              f"mean {gap.mean():.4f}, max {gap.max():.4f}, library better on "
-              f"{(gap < 0).mean():.0%} of pairs")
+        print(
+            f"  instance set-up (random trajectories + seed plans for 8 reward directions into "
+            f"the library): {build_time:.1f} s"
+        )
+        print(
+            f"  planner (budget {domain.planner.config.budget} rollouts per start): "
+            f"{planner_rate:,.0f} steps/s = {planner_rate / raw:.0%} of raw "
+            f"({plan_time:.1f} s for {args.starts} starts)"
+        )
+        print(
+            f"  optimal_values {args.rewards} x {args.starts}: library + refinement "
+            f"{fast_time:.1f} s; per-pair planning {full_time:,.0f} s (scaled from "
+            f"{args.subset} pairs in {subset_time:.1f} s) -> {full_time / fast_time:.0f}x faster"
+        )
+        print(
+            f"  value gap (per-pair planning − library) / (V* − V_rand) on {args.subset} pairs: "
+            f"mean {gap.mean():.4f}, max {gap.max():.4f}, library better on "
+            f"{(gap < 0).mean():.0%} of pairs"
+        )
         starts = np.arange(args.starts)
         quality = []
         for w in weights[1 : 1 + args.quality]:
-            warm = np.stack([domain.library.arrays(s)[1][domain.library.best(s, w[None])[1][0]]
-                             for s in starts])
+            warm = np.stack(
+                [domain.library.arrays(s)[1][domain.library.best(s, w[None])[1][0]] for s in starts]
+            )
             value = domain.start_feature_expectations(domain.plan(w)) @ w
-            reference = SamplingPlanner(scene, domain.planner.config.scaled(10)).plan(
-                starts, np.tile(w, (args.starts, 1)), np.random.default_rng(5),
-                warm_knots=warm).values
+            reference = (
+                SamplingPlanner(scene, domain.planner.config.scaled(10))
+                .plan(starts, np.tile(w, (args.starts, 1)), np.random.default_rng(5), warm_knots=warm)
+                .values
+            )
             v_rand = domain.random_start_feature_expectations() @ w
             top = np.maximum(reference, value)
             quality.append((top - value) / (top - v_rand))
         quality = np.concatenate(quality)
-        print(f"  planner vs 10x budget, {args.quality} rewards x {args.starts} starts: gap mean "
-              f"{quality.mean():.4f}, median {np.median(quality):.4f}, max {quality.max():.4f}")
+        print(
+            f"  planner vs 10x budget, {args.quality} rewards x {args.starts} starts: gap mean "
+            f"{quality.mean():.4f}, median {np.median(quality):.4f}, max {quality.max():.4f}"
+        )
 
 
 if __name__ == "__main__":

@@ -48,8 +48,12 @@ def make_case(seed: int) -> tuple[TabularDomain, list]:
 def fast_check(domain: TabularDomain, demos: list, seed: int) -> float:
     """One check as ``mjsuff run`` makes it: the sampler until converged (the shipped settings),
     then the bound with the index for the draws' effective size."""
-    post = sample_posterior(lambda w: domain.log_likelihood(w, demos, BETA),
-                            domain.num_features, SETTINGS, np.random.default_rng(seed))
+    post = sample_posterior(
+        lambda w: domain.log_likelihood(w, demos, BETA),
+        domain.num_features,
+        SETTINGS,
+        np.random.default_rng(seed),
+    )
     w = post.samples
     policy = domain.plan(post.map_weights)
     sw = domain.start_weights
@@ -87,8 +91,14 @@ def naive_values(p, rewards, terminal, gamma, policy=None, eps=1e-4):
 
 def naive_q(p, rewards, terminal, gamma, v):
     n, a_n = len(rewards), len(p[0])
-    return [[rewards[s] + (0.0 if terminal[s] else gamma * sum(
-        p[s][a][t] * v[t] for t in range(n) if p[s][a][t])) for a in range(a_n)] for s in range(n)]
+    return [
+        [
+            rewards[s]
+            + (0.0 if terminal[s] else gamma * sum(p[s][a][t] * v[t] for t in range(n) if p[s][a][t]))
+            for a in range(a_n)
+        ]
+        for s in range(n)
+    ]
 
 
 def naive_check(domain: TabularDomain, demos: list, seed: int) -> float:
@@ -109,8 +119,7 @@ def naive_check(domain: TabularDomain, demos: list, seed: int) -> float:
         total = 0.0
         for s, a in pairs:
             top = max(q[s])
-            total += BETA * q[s][a] - (BETA * top + math.log(
-                sum(math.exp(BETA * (x - top)) for x in q[s])))
+            total += BETA * q[s][a] - (BETA * top + math.log(sum(math.exp(BETA * (x - top)) for x in q[s])))
         return total
 
     # One chain, one proposal at a time, the paper's adaptive step; 500 kept after burn-in/thinning.
@@ -134,8 +143,7 @@ def naive_check(domain: TabularDomain, demos: list, seed: int) -> float:
     r_map = rewards_of(best_w.tolist())
     q_map = naive_q(p, r_map, terminal, gamma, naive_values(p, r_map, terminal, gamma))
     n_actions = len(p[0])
-    robot = [[1.0 if a == int(np.argmax(q_map[s])) else 0.0 for a in range(n_actions)]
-             for s in range(len(p))]
+    robot = [[1.0 if a == int(np.argmax(q_map[s])) else 0.0 for a in range(n_actions)] for s in range(len(p))]
     uniform = [[1.0 / n_actions] * n_actions for _ in range(len(p))]
     nevd = []
     for w_i in samples:
@@ -169,19 +177,27 @@ def main() -> None:
         naive_bounds.append(naive_check(domain, demos, seed))
         naive_times.append(time.perf_counter() - t)
     fast_cold = statistics.median(cold[: max(1, args.naive_instances)])
-    print(f"gridworld 5x5, {NUM_DEMOS} demos, 500 posterior samples, alpha={ALPHA}, "
-          f"delta={DELTA}")
-    print(f"mjsuff, fresh instance (cold cache): median {statistics.median(cold):.4f} s "
-          f"over {len(cold)} instances (min {min(cold):.4f}, max {max(cold):.4f})")
-    print(f"mjsuff, second check on the same instance (warm cache): median "
-          f"{statistics.median(warm):.4f} s")
+    print(f"gridworld 5x5, {NUM_DEMOS} demos, 500 posterior samples, alpha={ALPHA}, delta={DELTA}")
+    print(
+        f"mjsuff, fresh instance (cold cache): median {statistics.median(cold):.4f} s "
+        f"over {len(cold)} instances (min {min(cold):.4f}, max {max(cold):.4f})"
+    )
+    print(f"mjsuff, second check on the same instance (warm cache): median {statistics.median(warm):.4f} s")
     if naive_times:
-        print(f"naive reference: median {statistics.median(naive_times):.2f} s over "
-              f"{len(naive_times)} instance(s)")
-        print(f"speed-up (naive / mjsuff cold, same instances): "
-              f"{statistics.median(naive_times) / fast_cold:.0f}x")
-    print("bounds (mjsuff):", " ".join(f"{b:.3f}" for b in bounds[: args.naive_instances]),
-          "| bounds (naive):", " ".join(f"{b:.3f}" for b in naive_bounds))
+        print(
+            f"naive reference: median {statistics.median(naive_times):.2f} s over "
+            f"{len(naive_times)} instance(s)"
+        )
+        print(
+            f"speed-up (naive / mjsuff cold, same instances): "
+            f"{statistics.median(naive_times) / fast_cold:.0f}x"
+        )
+    print(
+        "bounds (mjsuff):",
+        " ".join(f"{b:.3f}" for b in bounds[: args.naive_instances]),
+        "| bounds (naive):",
+        " ".join(f"{b:.3f}" for b in naive_bounds),
+    )
 
 
 if __name__ == "__main__":

@@ -32,8 +32,9 @@ from mjsuff.scenes.planner import SamplingPlanner
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def measure(name: str, pairs: int, overrides: list[str], instance: int = 0,
-            budgets: tuple[tuple[int, int], ...] = ()) -> tuple[np.ndarray, np.ndarray]:
+def measure(
+    name: str, pairs: int, overrides: list[str], instance: int = 0, budgets: tuple[tuple[int, int], ...] = ()
+) -> tuple[np.ndarray, np.ndarray]:
     """Gaps of ``pairs`` random (sample, evaluation start) pairs of the top 10% and of as many
     of the decisive samples (module docs). For each CMA-ES ``(population, generations)`` in
     ``budgets``, also print the top pairs' gaps after each pair's own direction is planned from
@@ -42,9 +43,13 @@ def measure(name: str, pairs: int, overrides: list[str], instance: int = 0,
     domain = make_instance(scenario, instance)
     rng = np.random.default_rng(1)
     demos = [domain.demonstrate(0, rng)]
-    post = sample_posterior(lambda w: domain.log_prior(w) + domain.log_likelihood(
-        w, demos, scenario.demos.beta), domain.num_features, scenario.sampler(), rng,
-        initial=domain.sample_prior(rng, 80))
+    post = sample_posterior(
+        lambda w: domain.log_prior(w) + domain.log_likelihood(w, demos, scenario.demos.beta),
+        domain.num_features,
+        scenario.sampler(),
+        rng,
+        initial=domain.sample_prior(rng, 80),
+    )
     w = post.samples
     mu_robot = domain.start_feature_expectations(domain.plan(post.map_weights))
     t = time.perf_counter()
@@ -56,35 +61,51 @@ def measure(name: str, pairs: int, overrides: list[str], instance: int = 0,
     nevd = normalized_evd(v_star @ sw, policy_values(w, mu_robot, sw), policy_values(w, mu_rand, sw))
     order = np.argsort(-nevd)
     rank = len(w) - 1 - bound_index(nevd)
-    tail, decisive = order[: len(w) // 10], order[rank: rank + len(w) // 10]
+    tail, decisive = order[: len(w) // 10], order[rank : rank + len(w) // 10]
     far = np.degrees(np.arccos(np.clip(w[tail] @ domain.true_weights, -1, 1)))
-    print(f"{name}: tail of {len(tail)} samples, {far.min():.0f}–{far.max():.0f}° from w*; the "
-          f"bound is the {rank + 1}th largest; the learner's V* took {seconds:.1f} s")
+    print(
+        f"{name}: tail of {len(tail)} samples, {far.min():.0f}–{far.max():.0f}° from w*; the "
+        f"bound is the {rank + 1}th largest; the learner's V* took {seconds:.1f} s"
+    )
     chosen = [rng.choice(len(group) * len(sw), size=pairs, replace=False) for group in (tail, decisive)]
-    samples = np.concatenate([group[c // len(sw)] for group, c in zip((tail, decisive), chosen,
-                                                                      strict=True)])
+    samples = np.concatenate([group[c // len(sw)] for group, c in zip((tail, decisive), chosen, strict=True)])
     starts = np.concatenate([c % len(sw) for c in chosen])
-    warm = np.stack([domain.library.arrays(int(s))[1][domain.library.best(int(s), w[i][None])[1][0]]
-                     for i, s in zip(samples, starts, strict=True)])
-    reference = SamplingPlanner(domain.scene, domain.planner.config.stronger(10)).plan(
-        starts, w[samples], np.random.default_rng(2), warm_knots=warm).values
+    warm = np.stack(
+        [
+            domain.library.arrays(int(s))[1][domain.library.best(int(s), w[i][None])[1][0]]
+            for i, s in zip(samples, starts, strict=True)
+        ]
+    )
+    reference = (
+        SamplingPlanner(domain.scene, domain.planner.config.stronger(10))
+        .plan(starts, w[samples], np.random.default_rng(2), warm_knots=warm)
+        .values
+    )
     learner = v_star[samples, starts]
     scale = np.maximum(reference, learner) - np.einsum("nk,nk->n", w[samples], mu_rand[starts])
     gap = np.maximum(reference - learner, 0.0) / scale
     refined = [domain._refined[int(s)] for s in starts]
     cos = [(r @ w[i]).max() for r, i in zip(refined, samples, strict=True) if len(r)]
     if cos:
-        print(f"  nearest direction refined or planned from the pair's start: cosine "
-              f"{min(cos):.2f}–{max(cos):.2f}")
+        print(
+            f"  nearest direction refined or planned from the pair's start: cosine "
+            f"{min(cos):.2f}–{max(cos):.2f}"
+        )
     top = slice(0, pairs)
     for population, generations in budgets:
-        config = domain.planner.config.model_copy(update={
-            "iterations": 0, "cma_population": population, "cma_iterations": generations})
-        own = SamplingPlanner(domain.scene, config).plan(
-            starts[top], w[samples[top]], np.random.default_rng(3), warm_knots=warm[top]).values
+        config = domain.planner.config.model_copy(
+            update={"iterations": 0, "cma_population": population, "cma_iterations": generations}
+        )
+        own = (
+            SamplingPlanner(domain.scene, config)
+            .plan(starts[top], w[samples[top]], np.random.default_rng(3), warm_knots=warm[top])
+            .values
+        )
         g = np.maximum(reference[top] - np.maximum(learner[top], own), 0.0) / scale[top]
-        print(f"  + each pair's own direction planned with CMA-ES {population} x {generations}: "
-              f"mean {g.mean():.2%}, max {g.max():.2%}")
+        print(
+            f"  + each pair's own direction planned with CMA-ES {population} x {generations}: "
+            f"mean {g.mean():.2%}, max {g.max():.2%}"
+        )
     # A negative difference (the learner's library beating the reference) counts as 0.
     return gap[:pairs], gap[pairs:]
 
@@ -92,10 +113,10 @@ def measure(name: str, pairs: int, overrides: list[str], instance: int = 0,
 def budget(text: str) -> tuple[int, int]:
     """``"16x24"`` -> ``(16, 24)``: a CMA-ES population (≥ 4) and its generations (≥ 1)."""
     parts = text.split("x")
-    if len(parts) != 2 or not all(p.isdigit() for p in parts) or int(parts[0]) < 4 \
-            or not int(parts[1]):
+    if len(parts) != 2 or not all(p.isdigit() for p in parts) or int(parts[0]) < 4 or not int(parts[1]):
         raise argparse.ArgumentTypeError(
-            f"expected POPxGEN with POP >= 4 and GEN >= 1, e.g. 16x24; got {text!r}")
+            f"expected POPxGEN with POP >= 4 and GEN >= 1, e.g. 16x24; got {text!r}"
+        )
     return int(parts[0]), int(parts[1])
 
 
@@ -103,13 +124,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
     parser.add_argument("--pairs", type=int, default=16)
-    parser.add_argument("--instances", type=int, default=1,
-                        help="replicates 0..N-1's instances, each with --pairs pairs")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a scenario key, e.g. domain.params.planning.refine_rounds=2")
-    parser.add_argument("--own-budgets", nargs="*", default=[], metavar="POPxGEN", type=budget,
-                        help="also plan each pair's own direction with these CMA-ES budgets, "
-                             "e.g. 16x24 24x48 (a diagnostic of where the gap comes from)")
+    parser.add_argument(
+        "--instances", type=int, default=1, help="replicates 0..N-1's instances, each with --pairs pairs"
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scenario key, e.g. domain.params.planning.refine_rounds=2",
+    )
+    parser.add_argument(
+        "--own-budgets",
+        nargs="*",
+        default=[],
+        metavar="POPxGEN",
+        type=budget,
+        help="also plan each pair's own direction with these CMA-ES budgets, "
+        "e.g. 16x24 24x48 (a diagnostic of where the gap comes from)",
+    )
     args = parser.parse_args()
     budgets = tuple(args.own_budgets)
     for name in args.scenes:
@@ -117,9 +150,11 @@ def main() -> None:
         gaps = [measure(name, args.pairs, args.set, i, budgets) for i in range(args.instances)]
         for which, label in enumerate(("top 10%", "decisive")):
             gap = np.concatenate([g[which] for g in gaps])
-            print(f"{name}: learner V* below the 10x-budget plan by mean {gap.mean():.2%}, max "
-                  f"{gap.max():.2%} of V* - V_rand over {len(gap)} {label} pairs (target: mean "
-                  f"<= 1%, max <= 3%)")
+            print(
+                f"{name}: learner V* below the 10x-budget plan by mean {gap.mean():.2%}, max "
+                f"{gap.max():.2%} of V* - V_rand over {len(gap)} {label} pairs (target: mean "
+                f"<= 1%, max <= 3%)"
+            )
         print(f"{name}: {time.perf_counter() - t:.0f} s")
 
 

@@ -66,17 +66,37 @@ def summary_table(result: RunResult, thresholds: list[float]) -> Table:
     """Bound rules at their thresholds; baselines scored at the middle nEVD threshold."""
     eps_mid = sorted(thresholds)[len(thresholds) // 2] if thresholds else math.nan
     table = Table(title=f"{result.completed} replicate(s); baselines scored at ε = {eps_mid:g}")
-    for col in ("rule", "param", "ε", "F1", "accuracy", "bound err", "demos", "± sem",
-                "states", "TPR", "FPR", "optimality"):
+    for col in (
+        "rule",
+        "param",
+        "ε",
+        "F1",
+        "accuracy",
+        "bound err",
+        "demos",
+        "± sem",
+        "states",
+        "TPR",
+        "FPR",
+        "optimality",
+    ):
         table.add_column(col, justify="right" if col != "rule" else "left")
     for e in result.summary["entries"]:
         if e["rule"] in ("patience", "validation") and e["epsilon"] != eps_mid:
             continue
         table.add_row(
-            e["rule"], f"{e['param']:g}", f"{e['epsilon']:g}", _fmt(e["f1"]),
-            _fmt(e["accuracy"]), _fmt(e["bound_error"], 3), _fmt(e["demos_needed"], 1),
-            _fmt(e["demos_needed_sem"], 1), _fmt(e["fraction_of_states"]), _fmt(e["tpr"]),
-            _fmt(e["fpr"]), _fmt(e["policy_optimality"]),
+            e["rule"],
+            f"{e['param']:g}",
+            f"{e['epsilon']:g}",
+            _fmt(e["f1"]),
+            _fmt(e["accuracy"]),
+            _fmt(e["bound_error"], 3),
+            _fmt(e["demos_needed"], 1),
+            _fmt(e["demos_needed_sem"], 1),
+            _fmt(e["fraction_of_states"]),
+            _fmt(e["tpr"]),
+            _fmt(e["fpr"]),
+            _fmt(e["policy_optimality"]),
         )
     return table
 
@@ -118,22 +138,32 @@ def cmd_run(args: argparse.Namespace) -> int:
     if scenario is None:
         return EXIT_USAGE
     if args.resume and not args.out:
-        err.print("[red]error:[/] --resume: name the run directory to continue with --out DIR",
-                  highlight=False)
+        err.print(
+            "[red]error:[/] --resume: name the run directory to continue with --out DIR", highlight=False
+        )
         return EXIT_USAGE
-    directory = Path(args.out) if args.out else Path("runs") / (
-        f"{scenario.name}-{time.strftime('%Y%m%d-%H%M%S')}")
+    directory = (
+        Path(args.out) if args.out else Path("runs") / (f"{scenario.name}-{time.strftime('%Y%m%d-%H%M%S')}")
+    )
     progress = Progress(
-        TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[detail]}"),
-        TimeElapsedColumn(), TimeRemainingColumn(), console=err, disable=args.quiet,
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[detail]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err,
+        disable=args.quiet,
     )
     cells = len(scenario.cells())
     task = progress.add_task(scenario.name, total=cells * scenario.replicates, detail="")
 
     def on_progress(finished: int, planned: int, done: float) -> None:
-        progress.update(task, completed=done, total=planned,
-                        detail=f"{finished}/{planned} replicates"
-                               + (f" in {cells} sweep cells" if cells > 1 else ""))
+        progress.update(
+            task,
+            completed=done,
+            total=planned,
+            detail=f"{finished}/{planned} replicates" + (f" in {cells} sweep cells" if cells > 1 else ""),
+        )
 
     try:
         backend = make_backend(args.backend, args.workers, args.address)
@@ -164,8 +194,16 @@ def cmd_run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     try:
         with progress, _sigterm_interrupts():
-            result = run_scenario(scenario, directory, args.overwrite, on_progress, sources,
-                                  record=not args.no_record, backend=backend, resume=args.resume)
+            result = run_scenario(
+                scenario,
+                directory,
+                args.overwrite,
+                on_progress,
+                sources,
+                record=not args.no_record,
+                backend=backend,
+                resume=args.resume,
+            )
     except ClusterConnectionError as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return EXIT_CLUSTER
@@ -173,50 +211,74 @@ def cmd_run(args: argparse.Namespace) -> int:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
     except bad_input as exc:  # found mid-run: a demo set without the demo asked for
-        err.print(f"[red]error:[/] {exc} (finished replicates are saved in {directory})",
-                  highlight=False, soft_wrap=True)
+        err.print(
+            f"[red]error:[/] {exc} (finished replicates are saved in {directory})",
+            highlight=False,
+            soft_wrap=True,
+        )
         return EXIT_USAGE
     except KeyboardInterrupt:
-        err.print(f"interrupted: finished replicates are saved in {directory} "
-                  "(steps.parquet, summary.json)", highlight=False)
+        err.print(
+            f"interrupted: finished replicates are saved in {directory} (steps.parquet, summary.json)",
+            highlight=False,
+        )
         return EXIT_INTERRUPTED
     if not args.quiet:
         for cell in result.cells or (CellResult({}, result),):
             table = summary_table(cell.result, scenario.rules.nevd_thresholds)
             if cell.labels:
-                table.title = ", ".join(f"{k} = {v}" for k, v in cell.labels.items()) + \
-                    f": {table.title}"
+                table.title = ", ".join(f"{k} = {v}" for k, v in cell.labels.items()) + f": {table.title}"
             out.print(table)
     if result.simulation["simulated_steps"]:
-        out.print(f"MuJoCo: {result.simulation['simulated_steps']:,} steps simulated; "
-                  f"{result.simulation['diverged_rollouts']:,} diverged rollouts detected and "
-                  "never scored", highlight=False)
+        out.print(
+            f"MuJoCo: {result.simulation['simulated_steps']:,} steps simulated; "
+            f"{result.simulation['diverged_rollouts']:,} diverged rollouts detected and "
+            "never scored",
+            highlight=False,
+        )
     sampler = result.sampler
     if sampler.get("posteriors"):
         capped = sampler["unconverged_posteriors"]
         cfg = scenario.sampler()
-        note = (f"{capped:,} hit the step cap ({cfg.max_steps}) first: flagged (converged = false "
-                "in steps.parquet) and never used to stop" if capped else "all converged")
-        out.print(f"MCMC: {sampler['posteriors']:,} posteriors (R̂ ≤ {cfg.rhat_target:g}, ESS ≥ "
-                  f"{cfg.ess_target:g}); {note}", highlight=False)
+        note = (
+            f"{capped:,} hit the step cap ({cfg.max_steps}) first: flagged (converged = false "
+            "in steps.parquet) and never used to stop"
+            if capped
+            else "all converged"
+        )
+        out.print(
+            f"MCMC: {sampler['posteriors']:,} posteriors (R̂ ≤ {cfg.rhat_target:g}, ESS ≥ "
+            f"{cfg.ess_target:g}); {note}",
+            highlight=False,
+        )
     if result.recording_error:
-        err.print(f"[yellow]warning:[/] the recording was not merged: {result.recording_error}",
-                  highlight=False, soft_wrap=True)
+        err.print(
+            f"[yellow]warning:[/] the recording was not merged: {result.recording_error}",
+            highlight=False,
+            soft_wrap=True,
+        )
     recorded = "" if args.no_record else ", recording.rrd (mjsuff view DIR)"
     cells_note = " (per cell in cells/*/; sweep.json)" if result.cells else ""
-    out.print(f"results: {directory}/steps.parquet, summary.json, config.toml{recorded}"
-              f"{cells_note}; mjsuff report {directory} for figures", highlight=False)
+    out.print(
+        f"results: {directory}/steps.parquet, summary.json, config.toml{recorded}"
+        f"{cells_note}; mjsuff report {directory} for figures",
+        highlight=False,
+    )
     return 0
 
 
 def cmd_hoeffding(args: argparse.Namespace) -> int:
-    table = Table(title=f"Demos for a {1 - args.delta:.0%}-confidence Hoeffding bound "
-                        f"(γ = {args.gamma}, k = {args.k})")
+    table = Table(
+        title=f"Demos for a {1 - args.delta:.0%}-confidence Hoeffding bound (γ = {args.gamma}, k = {args.k})"
+    )
     for col in ("Threshold", "Abbeel and Ng", "Syed and Schapire"):
         table.add_column(col, justify="right")
     for eps in args.thresholds:
-        table.add_row(f"{eps:g}", f"{abbeel_ng_demos(eps, args.gamma, args.k, args.delta):,}",
-                      f"{syed_schapire_demos(eps, args.gamma, args.k, args.delta):,}")
+        table.add_row(
+            f"{eps:g}",
+            f"{abbeel_ng_demos(eps, args.gamma, args.k, args.delta):,}",
+            f"{syed_schapire_demos(eps, args.gamma, args.k, args.delta):,}",
+        )
     out.print(table)
     return 0
 
@@ -229,13 +291,19 @@ def cmd_demos(args: argparse.Namespace) -> int:
     if scenario is None:
         return EXIT_USAGE
     if scenario.domain.name not in EXPERTS:
-        err.print(f"[red]error:[/] {args.scenario}: domain.name: demos are generated for the MuJoCo "
-                  f"scenes {sorted(EXPERTS)}, not {scenario.domain.name!r}", highlight=False,
-                  soft_wrap=True)
+        err.print(
+            f"[red]error:[/] {args.scenario}: domain.name: demos are generated for the MuJoCo "
+            f"scenes {sorted(EXPERTS)}, not {scenario.domain.name!r}",
+            highlight=False,
+            soft_wrap=True,
+        )
         return EXIT_USAGE
     if args.count is not None and args.count < 1:
-        err.print(f"[red]error:[/] --count: expected a positive number, got {args.count}",
-                  highlight=False, soft_wrap=True)
+        err.print(
+            f"[red]error:[/] --count: expected a positive number, got {args.count}",
+            highlight=False,
+            soft_wrap=True,
+        )
         return EXIT_USAGE
     count = args.count or scenario.demos.max_demos or 10
     path = Path(args.out or f"demos/{scenario.name}-seed{scenario.seed}-r{args.replicate}.npz")
@@ -245,14 +313,21 @@ def cmd_demos(args: argparse.Namespace) -> int:
     if path.exists() and not args.overwrite:
         err.print(f"[red]error:[/] {path} exists; pass --overwrite to replace it", highlight=False)
         return EXIT_USAGE
-    progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                        TextColumn("{task.fields[detail]}"), TimeElapsedColumn(),
-                        TimeRemainingColumn(), console=err, disable=args.quiet)
+    progress = Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[detail]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err,
+        disable=args.quiet,
+    )
     task = progress.add_task(f"{scenario.name} demos", total=count, detail="")
 
     def on_demo(i: int, demo) -> None:
-        progress.update(task, completed=i + 1,
-                        detail=f"{i + 1}/{count}, tracking {demo.tracking_error * 1000:.1f} mm")
+        progress.update(
+            task, completed=i + 1, detail=f"{i + 1}/{count}, tracking {demo.tracking_error * 1000:.1f} mm"
+        )
 
     started = time.perf_counter()
     try:
@@ -272,12 +347,20 @@ def cmd_demos(args: argparse.Namespace) -> int:
         for col in ("#", "start", *meta["feature_names"], "tracking (mm)", "poor"):
             table.add_column(col, justify="right")
         for i in range(len(demo_set)):
-            table.add_row(str(i), str(a["start_index"][i]), *(f"{f:.3f}" for f in a["features"][i]),
-                          f"{a['tracking_error'][i] * 1000:.2f}", "yes" if a["poor"][i] else "")
+            table.add_row(
+                str(i),
+                str(a["start_index"][i]),
+                *(f"{f:.3f}" for f in a["features"][i]),
+                f"{a['tracking_error'][i] * 1000:.2f}",
+                "yes" if a["poor"][i] else "",
+            )
         out.print(table)
-    out.print(f"{len(demo_set)} demos in {elapsed:.1f} s ({len(demo_set) / elapsed:.2f} demos/s); "
-              f"max tracking error {a['tracking_error'].max() * 1000:.2f} mm; "
-              f"IK failures among candidates {sum(meta['ik_failures'])}", highlight=False)
+    out.print(
+        f"{len(demo_set)} demos in {elapsed:.1f} s ({len(demo_set) / elapsed:.2f} demos/s); "
+        f"max tracking error {a['tracking_error'].max() * 1000:.2f} mm; "
+        f"IK failures among candidates {sum(meta['ik_failures'])}",
+        highlight=False,
+    )
     out.print(f"demos: {path} (true weights apart: {truth_path(path)})", highlight=False)
     if meta["interrupted"]:
         err.print(f"interrupted: the {len(demo_set)} finished demos are saved", highlight=False)
@@ -295,16 +378,23 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if scenario is None:
         return EXIT_USAGE
     if args.instances < 1:
-        err.print(f"[red]error:[/] --instances: expected a positive number, got {args.instances}",
-                  highlight=False, soft_wrap=True)
+        err.print(
+            f"[red]error:[/] --instances: expected a positive number, got {args.instances}",
+            highlight=False,
+            soft_wrap=True,
+        )
         return EXIT_USAGE
     if args.json and Path(args.json).suffix != ".json":
-        err.print(f"[red]error:[/] --json {args.json}: expected a .json file name",
-                  highlight=False, soft_wrap=True)
+        err.print(
+            f"[red]error:[/] --json {args.json}: expected a .json file name", highlight=False, soft_wrap=True
+        )
         return EXIT_USAGE
     if args.json and not Path(args.json).parent.is_dir():
-        err.print(f"[red]error:[/] --json {args.json}: directory {Path(args.json).parent} "
-                  "does not exist", highlight=False, soft_wrap=True)
+        err.print(
+            f"[red]error:[/] --json {args.json}: directory {Path(args.json).parent} does not exist",
+            highlight=False,
+            soft_wrap=True,
+        )
         return EXIT_USAGE
 
     def show(fit: BetaFit) -> str:
@@ -314,19 +404,31 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             return f"≤ {fit.beta:g} (demos no better than alternatives)"
         return f"{fit.beta:.1f} ± {fit.standard_error:.1f}"
 
-    table = Table(title=f"β by maximum likelihood under w*, {scenario.name} "
-                        f"(β in the scenario: {scenario.demos.beta:g})")
+    table = Table(
+        title=f"β by maximum likelihood under w*, {scenario.name} "
+        f"(β in the scenario: {scenario.demos.beta:g})"
+    )
     for col in ("instance", "demos", "poor", "β̂", "log-lik.", "demo beaten by"):
         table.add_column(col, justify="right")
-    progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
-                        console=err, disable=args.quiet)
+    progress = Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeElapsedColumn(),
+        console=err,
+        disable=args.quiet,
+    )
     task = progress.add_task("calibration instances", total=args.instances)
 
     def on_instance(c: InstanceCalibration) -> None:
-        table.add_row(str(c.instance), str(c.demos), str(c.poor_demos), show(c.fit),
-                      f"{c.fit.log_likelihood:.2f}",
-                      " ".join(map(str, c.beaten_by)) if c.beaten_by else "–")
+        table.add_row(
+            str(c.instance),
+            str(c.demos),
+            str(c.poor_demos),
+            show(c.fit),
+            f"{c.fit.log_likelihood:.2f}",
+            " ".join(map(str, c.beaten_by)) if c.beaten_by else "–",
+        )
         progress.advance(task)
 
     try:
@@ -340,8 +442,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     if not args.quiet:
         out.print(table)
-    out.print(f"pooled over {args.instances} instance(s): β̂ = {show(result.pooled)}",
-              highlight=False, soft_wrap=True)
+    out.print(
+        f"pooled over {args.instances} instance(s): β̂ = {show(result.pooled)}",
+        highlight=False,
+        soft_wrap=True,
+    )
     if args.json:
         from mjsuff.experiment.results import atomic_write_text
 
@@ -349,8 +454,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         try:
             atomic_write_text(Path(args.json), json.dumps(payload, indent=2) + "\n")
         except OSError as exc:
-            err.print(f"[red]error:[/] --json {args.json}: {exc.strerror or exc}",
-                      highlight=False, soft_wrap=True)
+            err.print(
+                f"[red]error:[/] --json {args.json}: {exc.strerror or exc}", highlight=False, soft_wrap=True
+            )
             return EXIT_USAGE
         out.print(f"calibration: {args.json}", highlight=False, soft_wrap=True)
     return 0
@@ -376,8 +482,15 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 
     shipped = shipped_scenarios()
     if args.json:
-        print(json.dumps([{"name": s.name, "domain": s.domain, "description": s.description,
-                           "path": str(s.path)} for s in shipped], indent=2))
+        print(
+            json.dumps(
+                [
+                    {"name": s.name, "domain": s.domain, "description": s.description, "path": str(s.path)}
+                    for s in shipped
+                ],
+                indent=2,
+            )
+        )
         return 0
     table = Table(title="Shipped scenarios: mjsuff run NAME")
     for col in ("name", "domain", "description"):
@@ -386,8 +499,9 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
         table.add_row(s.name, s.domain, s.description)
     out.print(table)
     folder = shipped[0].path.parent if shipped else "(none)"
-    out.print(f"files: {folder} (a file of the same name in the working directory comes first)",
-              highlight=False)
+    out.print(
+        f"files: {folder} (a file of the same name in the working directory comes first)", highlight=False
+    )
     return 0
 
 
@@ -403,20 +517,27 @@ def cmd_view(args: argparse.Namespace) -> int:
     if path.is_dir():
         path = path / "recording.rrd"
     if not path.is_file():
-        err.print(f"[red]error:[/] {path}: no recording (runs write DIR/recording.rrd unless "
-                  "--no-record)", highlight=False, soft_wrap=True)
+        err.print(
+            f"[red]error:[/] {path}: no recording (runs write DIR/recording.rrd unless --no-record)",
+            highlight=False,
+            soft_wrap=True,
+        )
         return EXIT_USAGE
     rerun = shutil.which("rerun")
     command = [rerun] if rerun else [sys.executable, "-m", "rerun"]
     if args.web:
         command += ["--web-viewer", "--web-viewer-port", str(args.port), str(path)]
-        out.print(f"serving {path} to a browser at http://localhost:{args.port} (Ctrl-C stops)",
-                  highlight=False)
+        out.print(
+            f"serving {path} to a browser at http://localhost:{args.port} (Ctrl-C stops)", highlight=False
+        )
     elif not has_display():
-        err.print(f"no display here to open {path} on. Either copy it to a machine with one and "
-                  f"run `rerun {path.name}` (pip install rerun-sdk=={_rerun_version()}), or serve "
-                  f"it to a browser from here: mjsuff view {args.path} --web", highlight=False,
-                  soft_wrap=True)
+        err.print(
+            f"no display here to open {path} on. Either copy it to a machine with one and "
+            f"run `rerun {path.name}` (pip install rerun-sdk=={_rerun_version()}), or serve "
+            f"it to a browser from here: mjsuff view {args.path} --web",
+            highlight=False,
+            soft_wrap=True,
+        )
         return 1
     else:
         command.append(str(path))
@@ -439,114 +560,158 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="mjsuff",
         description="Demonstration sufficiency testbed: Bayesian IRL with high-confidence "
-                    "bounds on the robot's regret, on tabular and MuJoCo domains.",
+        "bounds on the robot's regret, on tabular and MuJoCo domains.",
     )
     parser.add_argument("--version", action="version", version=f"mjsuff {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    run = sub.add_parser("run", help="run a scenario: demos one at a time, every stopping rule "
-                                     "decides, ground truth scores it",
-                         description="Run a scenario file (or a shipped scenario by name: "
-                                     "mjsuff scenarios lists them) and write steps.parquet, "
-                                     "summary.json and config.toml to the output directory.",
-                         epilog=f"exit status: 0 done, {EXIT_USAGE} bad input (nothing written), "
-                                f"{EXIT_CLUSTER} the Ray cluster at --address cannot be used "
-                                f"(nothing written), {EXIT_INTERRUPTED} interrupted (finished "
-                                "replicates kept; --resume continues)")
-    run.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. scenarios/gridworld.toml or "
-                                      "lava_reacher")
+    run = sub.add_parser(
+        "run",
+        help="run a scenario: demos one at a time, every stopping rule decides, ground truth scores it",
+        description="Run a scenario file (or a shipped scenario by name: "
+        "mjsuff scenarios lists them) and write steps.parquet, "
+        "summary.json and config.toml to the output directory.",
+        epilog=f"exit status: 0 done, {EXIT_USAGE} bad input (nothing written), "
+        f"{EXIT_CLUSTER} the Ray cluster at --address cannot be used "
+        f"(nothing written), {EXIT_INTERRUPTED} interrupted (finished "
+        "replicates kept; --resume continues)",
+    )
+    run.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. scenarios/gridworld.toml or lava_reacher")
     run.add_argument("--out", help="output directory (default: runs/NAME-TIMESTAMP)")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--replicates", type=int, help="override the number of replicates")
-    run.add_argument("--set", action="append", metavar="KEY=VALUE",
-                     help="override a scenario key, e.g. --set sufficiency.alpha=0.99 "
-                          "(repeatable)")
-    run.add_argument("--demos", action="append", metavar="FILE",
-                     help="a saved demo set (mjsuff demos) for the replicate it names, instead of "
-                          "the live expert; repeat for more replicates")
-    run.add_argument("--no-record", action="store_true",
-                     help="do not write the Rerun recording DIR/recording.rrd")
+    run.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a scenario key, e.g. --set sufficiency.alpha=0.99 (repeatable)",
+    )
+    run.add_argument(
+        "--demos",
+        action="append",
+        metavar="FILE",
+        help="a saved demo set (mjsuff demos) for the replicate it names, instead of "
+        "the live expert; repeat for more replicates",
+    )
+    run.add_argument(
+        "--no-record", action="store_true", help="do not write the Rerun recording DIR/recording.rrd"
+    )
     existing = run.add_mutually_exclusive_group()
-    existing.add_argument("--overwrite", action="store_true",
-                          help="replace the results in a non-empty --out directory")
-    existing.add_argument("--resume", action="store_true",
-                     help="continue the run in --out: keep its finished replicates, run the rest "
-                          "(the scenario must match its config.toml; --replicates may grow)")
-    run.add_argument("--backend", choices=("local", "serial", "ray"), default="local",
-                     help="where replicates run: local worker processes (default), serial (this "
-                          "process, per-demo progress) or a Ray cluster (pip install 'mjsuff[ray]')")
-    run.add_argument("--workers", type=int,
-                     help="local: worker processes (default: all cores; 1 = serial); ray: CPUs of "
-                          "the local Ray instance")
-    run.add_argument("--address", help="ray: address of a running cluster (default: start a "
-                                       "local Ray instance)")
+    existing.add_argument(
+        "--overwrite", action="store_true", help="replace the results in a non-empty --out directory"
+    )
+    existing.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --out: keep its finished replicates, run the rest "
+        "(the scenario must match its config.toml; --replicates may grow)",
+    )
+    run.add_argument(
+        "--backend",
+        choices=("local", "serial", "ray"),
+        default="local",
+        help="where replicates run: local worker processes (default), serial (this "
+        "process, per-demo progress) or a Ray cluster (pip install 'mjsuff[ray]')",
+    )
+    run.add_argument(
+        "--workers",
+        type=int,
+        help="local: worker processes (default: all cores; 1 = serial); ray: CPUs of the local Ray instance",
+    )
+    run.add_argument(
+        "--address", help="ray: address of a running cluster (default: start a local Ray instance)"
+    )
     run.add_argument("--quiet", action="store_true", help="no progress bar or summary table")
     run.set_defaults(func=cmd_run)
 
-    demos = sub.add_parser("demos", help="generate scripted kinesthetic demonstrations (mink IK, "
-                                         "executed in MuJoCo) for a MuJoCo scenario",
-                           description="Generate a demo set (.npz, true weights apart in "
-                                       ".truth.json) for one replicate's scene instance, with "
-                                       "the seed streams mjsuff run uses.")
+    demos = sub.add_parser(
+        "demos",
+        help="generate scripted kinesthetic demonstrations (mink IK, "
+        "executed in MuJoCo) for a MuJoCo scenario",
+        description="Generate a demo set (.npz, true weights apart in "
+        ".truth.json) for one replicate's scene instance, with "
+        "the seed streams mjsuff run uses.",
+    )
     demos.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. lava_reacher")
     demos.add_argument("--count", type=int, help="number of demos (default: demos.max_demos)")
     demos.add_argument("--out", help="output .npz (default: demos/NAME-seedS-rR.npz)")
     demos.add_argument("--seed", type=int, help="override the scenario's seed")
     demos.add_argument("--replicate", type=int, default=0, help="which replicate's instance")
-    demos.add_argument("--set", action="append", metavar="KEY=VALUE",
-                       help="override a scenario key, e.g. --set expert.rationality=20")
+    demos.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a scenario key, e.g. --set expert.rationality=20",
+    )
     demos.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
     demos.add_argument("--quiet", action="store_true", help="no progress bar or demo table")
     demos.set_defaults(func=cmd_demos)
 
-    cal = sub.add_parser("calibrate", help="fit the likelihood's β to the scenario's "
-                                           "demonstrator on calibration instances",
-                         description="The calibration stage of the paper's §6.2: draw "
-                                     "calibration instances (never the ones a run is scored on), "
-                                     "collect the demos a passive run would get, and fit β by "
-                                     "maximum likelihood under the known w*, per instance and "
-                                     "pooled. Set demos.beta in the scenario to the pooled value.")
+    cal = sub.add_parser(
+        "calibrate",
+        help="fit the likelihood's β to the scenario's demonstrator on calibration instances",
+        description="The calibration stage of the paper's §6.2: draw "
+        "calibration instances (never the ones a run is scored on), "
+        "collect the demos a passive run would get, and fit β by "
+        "maximum likelihood under the known w*, per instance and "
+        "pooled. Set demos.beta in the scenario to the pooled value.",
+    )
     cal.add_argument("scenario", help=f"{SCENARIO_HELP}, e.g. lander")
     cal.add_argument("--instances", type=int, default=4, help="calibration instances (default 4)")
     cal.add_argument("--seed", type=int, help="override the scenario's seed")
-    cal.add_argument("--set", action="append", metavar="KEY=VALUE",
-                     help="override a scenario key, e.g. --set demos.noise_fraction=0.2")
+    cal.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a scenario key, e.g. --set demos.noise_fraction=0.2",
+    )
     cal.add_argument("--json", metavar="FILE", help="also write the fits to this .json file")
     cal.add_argument("--quiet", action="store_true", help="no progress bar or table")
     cal.set_defaults(func=cmd_calibrate)
 
-    view = sub.add_parser("view", help="open a run's Rerun recording in the viewer",
-                          description="Open DIR/recording.rrd (or an .rrd file) in the Rerun "
-                                      "viewer; without a display, says what to run instead.")
+    view = sub.add_parser(
+        "view",
+        help="open a run's Rerun recording in the viewer",
+        description="Open DIR/recording.rrd (or an .rrd file) in the Rerun "
+        "viewer; without a display, says what to run instead.",
+    )
     view.add_argument("path", help="a run directory or an .rrd file")
-    view.add_argument("--web", action="store_true",
-                      help="serve the web viewer instead (works without a display)")
+    view.add_argument(
+        "--web", action="store_true", help="serve the web viewer instead (works without a display)"
+    )
     view.add_argument("--port", type=int, default=9090, help="web viewer port (with --web)")
     view.set_defaults(func=cmd_view)
 
-    report = sub.add_parser("report", help="figures, rule comparisons and a markdown summary of "
-                                           "finished runs",
-                            description="Write the paper's figures (F1 and demos needed vs. ε, "
-                                        "bound and true nEVD vs. demos, the noise ablation), "
-                                        "Kruskal-Wallis and Dunn-Bonferroni tests between rules, "
-                                        "and report.md linking them. Give one run or sweep "
-                                        "directory, or several runs (labelled by the scenario "
-                                        "keys in which they differ).")
+    report = sub.add_parser(
+        "report",
+        help="figures, rule comparisons and a markdown summary of finished runs",
+        description="Write the paper's figures (F1 and demos needed vs. ε, "
+        "bound and true nEVD vs. demos, the noise ablation), "
+        "Kruskal-Wallis and Dunn-Bonferroni tests between rules, "
+        "and report.md linking them. Give one run or sweep "
+        "directory, or several runs (labelled by the scenario "
+        "keys in which they differ).",
+    )
     report.add_argument("directories", nargs="+", metavar="DIR", help="run or sweep directories")
     report.add_argument("--out", help="where to write (default: DIR/report of the first DIR)")
     report.set_defaults(func=cmd_report)
 
-    scen = sub.add_parser("scenarios", help="list the shipped scenarios (mjsuff run NAME runs one)",
-                          description="List the scenario files shipped with mjsuff: name, "
-                                      "domain and the first sentence of the file's comment. "
-                                      "Commands that take a scenario take these names when no "
-                                      "file of that name exists.")
-    scen.add_argument("--json", action="store_true",
-                      help="print a JSON list (name, domain, description, path) instead of a table")
+    scen = sub.add_parser(
+        "scenarios",
+        help="list the shipped scenarios (mjsuff run NAME runs one)",
+        description="List the scenario files shipped with mjsuff: name, "
+        "domain and the first sentence of the file's comment. "
+        "Commands that take a scenario take these names when no "
+        "file of that name exists.",
+    )
+    scen.add_argument(
+        "--json",
+        action="store_true",
+        help="print a JSON list (name, domain, description, path) instead of a table",
+    )
     scen.set_defaults(func=cmd_scenarios)
 
-    hoeff = sub.add_parser("hoeffding", help="print the paper's Table 1 (Hoeffding-based "
-                                             "demo counts)")
+    hoeff = sub.add_parser("hoeffding", help="print the paper's Table 1 (Hoeffding-based demo counts)")
     hoeff.add_argument("--gamma", type=float, default=0.95)
     hoeff.add_argument("--k", type=int, default=4)
     hoeff.add_argument("--delta", type=float, default=0.05)

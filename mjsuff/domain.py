@@ -82,8 +82,9 @@ class Domain(abc.ABC):
         """Discounted feature expectations of ``policy`` from each evaluation start -> ``(S, k)``."""
 
     @abc.abstractmethod
-    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None,
-                             bound_index: BoundIndex | None = None) -> np.ndarray:
+    def optimal_start_values(
+        self, weights: np.ndarray, robot: np.ndarray | None = None, bound_index: BoundIndex | None = None
+    ) -> np.ndarray:
         """Optimal values ``V*_w(s)`` for a batch ``(N, k)`` of weights -> ``(N, S)``.
 
         Must never underestimate the optimum (an underestimate makes the bound optimistic).

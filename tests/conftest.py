@@ -18,8 +18,12 @@ def small_scenario(**overrides: Any) -> Scenario:
         "domain": {"name": "gridworld"},
         "demos": {"max_demos": 4},
         "posterior": {"num_samples": 100, "chains": 10, "burn_in": 30},
-        "rules": {"nevd_thresholds": [0.2, 0.5], "piob_thresholds": [0.4], "patience": [1],
-                  "validation_intervals": [2]},
+        "rules": {
+            "nevd_thresholds": [0.2, 0.5],
+            "piob_thresholds": [0.4],
+            "patience": [1],
+            "validation_intervals": [2],
+        },
     }
     for key, value in overrides.items():
         node = data

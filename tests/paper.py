@@ -51,7 +51,6 @@ def check_figure_4(entries: pd.DataFrame) -> None:
     assert rule(entries, "patience")["f1"].mean() <= nevd["f1"].mean()
 
 
-
 ACTIVE = ("demos.selection=active", "rules.patience=[]", "rules.validation_intervals=[]")
 
 

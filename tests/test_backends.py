@@ -18,13 +18,17 @@ def serial_run(tmp_path_factory):
 
 def test_local_processes_match_serial(serial_run, tmp_path):
     progress = []
-    result = run_scenario(small_scenario(replicates=3), tmp_path / "local",
-                          progress=lambda *a: progress.append(a), backend=LocalBackend(2))
+    result = run_scenario(
+        small_scenario(replicates=3),
+        tmp_path / "local",
+        progress=lambda *a: progress.append(a),
+        backend=LocalBackend(2),
+    )
     assert result.completed == 3
-    pd.testing.assert_frame_equal(pd.read_parquet(serial_run / "steps.parquet"),
-                                  pd.read_parquet(tmp_path / "local" / "steps.parquet"))
-    assert (serial_run / "summary.json").read_bytes() == \
-        (tmp_path / "local" / "summary.json").read_bytes()
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(serial_run / "steps.parquet"), pd.read_parquet(tmp_path / "local" / "steps.parquet")
+    )
+    assert (serial_run / "summary.json").read_bytes() == (tmp_path / "local" / "summary.json").read_bytes()
     # Per-demo progress came back from the workers, and it ends at all replicates done.
     assert any(0 < done % 1 for _, _, done in progress)
     assert progress[-1] == (3, 3, 3)
@@ -38,12 +42,12 @@ def test_ray_matches_serial(serial_run, tmp_path):
     pytest.importorskip("ray", reason="the ray extra is not installed")
     backend = make_backend("ray", workers=2)
     try:
-        run_scenario(small_scenario(replicates=3), tmp_path / "ray", backend=backend,
-                     record=False)
+        run_scenario(small_scenario(replicates=3), tmp_path / "ray", backend=backend, record=False)
     finally:
         backend.shutdown()
-    pd.testing.assert_frame_equal(pd.read_parquet(serial_run / "steps.parquet"),
-                                  pd.read_parquet(tmp_path / "ray" / "steps.parquet"))
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(serial_run / "steps.parquet"), pd.read_parquet(tmp_path / "ray" / "steps.parquet")
+    )
 
 
 def test_backend_choices_are_checked():

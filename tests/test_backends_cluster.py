@@ -95,15 +95,28 @@ def cluster(tmp_path_factory) -> Iterator[Cluster]:
         temp_dir = Path(tempfile.mkdtemp(prefix="mjr-", dir="/tmp"))
     env = user_env(home, RAY_AUTH_MODE="token")
     # The README's recipe: a token in ~/.ray/auth_token, token mode, then the head node.
-    subprocess.run([RAY, "get-auth-token", "--generate"], env=env, check=True,
-                   capture_output=True, timeout=60)
+    subprocess.run(
+        [RAY, "get-auth-token", "--generate"], env=env, check=True, capture_output=True, timeout=60
+    )
     port = free_port()
     started = subprocess.Popen(
-        [RAY, "start", "--head", f"--port={port}", f"--temp-dir={temp_dir}", "--num-cpus=2",
-         "--include-dashboard=false", "--disable-usage-stats",
-         f"--dashboard-agent-listen-port={free_port()}"],
-        env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        start_new_session=True)
+        [
+            RAY,
+            "start",
+            "--head",
+            f"--port={port}",
+            f"--temp-dir={temp_dir}",
+            "--num-cpus=2",
+            "--include-dashboard=false",
+            "--disable-usage-stats",
+            f"--dashboard-agent-listen-port={free_port()}",
+        ],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
     head = Cluster(f"127.0.0.1:{port}", started.pid, temp_dir, env)
     try:
         output, _ = started.communicate(timeout=120)
@@ -117,43 +130,65 @@ def cluster(tmp_path_factory) -> Iterator[Cluster]:
 
 def start_mjsuff_run(out: Path, env: dict[str, str], *extra: str) -> subprocess.Popen:
     """``mjsuff run`` of the small gridworld sweep of ``test_cli``, as a user runs it."""
-    args = [sys.executable, "-m", "mjsuff.cli", "run", GRIDWORLD, "--out", str(out), "--quiet",
-            "--no-record", *extra]
+    args = [
+        sys.executable,
+        "-m",
+        "mjsuff.cli",
+        "run",
+        GRIDWORLD,
+        "--out",
+        str(out),
+        "--quiet",
+        "--no-record",
+        *extra,
+    ]
     for s in SMALL_SETS:
         args += ["--set", s]
-    return subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    return subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
 def test_run_on_a_cluster_matches_the_local_backend(cluster, tmp_path):
-    on_cluster = start_mjsuff_run(tmp_path / "ray", cluster.env, "--backend", "ray",
-                                  "--address", cluster.address)
+    on_cluster = start_mjsuff_run(
+        tmp_path / "ray", cluster.env, "--backend", "ray", "--address", cluster.address
+    )
     # The reference, meanwhile, in this process: serial, which tests/test_backends.py shows
     # gives the local worker processes' rows and summary byte for byte.
     assert run_cli(tmp_path / "local", "--no-record") == 0
     _, stderr = on_cluster.communicate(timeout=300)
     assert on_cluster.returncode == 0, stderr
-    assert (tmp_path / "ray" / "summary.json").read_bytes() == \
-        (tmp_path / "local" / "summary.json").read_bytes()
-    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "ray" / "steps.parquet"),
-                                  pd.read_parquet(tmp_path / "local" / "steps.parquet"))
+    assert (tmp_path / "ray" / "summary.json").read_bytes() == (
+        tmp_path / "local" / "summary.json"
+    ).read_bytes()
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "ray" / "steps.parquet"),
+        pd.read_parquet(tmp_path / "local" / "steps.parquet"),
+    )
     assert f'"backend": "ray ({cluster.address})"' in (tmp_path / "ray" / "run.json").read_text()
 
 
 def test_a_refused_token_is_one_line_saying_what_to_set(cluster, tmp_path):
     home = Path(cluster.env["HOME"])  # holds the cluster's token in ~/.ray/auth_token
     cases = {  # name: (environment, what the line says)
-        "token mode unset": (user_env(home), "the cluster requires token authentication; set "
-                             "RAY_AUTH_MODE=token here, and Ray sends the token in "
-                             "~/.ray/auth_token"),
-        "wrong token": (user_env(home, RAY_AUTH_MODE="token", RAY_AUTH_TOKEN="0" * 64),
-                        "the cluster refused the token in RAY_AUTH_TOKEN"),
-        "no token": (user_env(tmp_path, RAY_AUTH_MODE="token"),
-                     "RAY_AUTH_MODE=token, but no token is set here"),
+        "token mode unset": (
+            user_env(home),
+            "the cluster requires token authentication; set "
+            "RAY_AUTH_MODE=token here, and Ray sends the token in "
+            "~/.ray/auth_token",
+        ),
+        "wrong token": (
+            user_env(home, RAY_AUTH_MODE="token", RAY_AUTH_TOKEN="0" * 64),
+            "the cluster refused the token in RAY_AUTH_TOKEN",
+        ),
+        "no token": (
+            user_env(tmp_path, RAY_AUTH_MODE="token"),
+            "RAY_AUTH_MODE=token, but no token is set here",
+        ),
     }
     started = time.monotonic()
-    runs = {name: start_mjsuff_run(tmp_path / name, env, "--backend", "ray", "--address",
-                                   cluster.address) for name, (env, _) in cases.items()}
+    runs = {
+        name: start_mjsuff_run(tmp_path / name, env, "--backend", "ray", "--address", cluster.address)
+        for name, (env, _) in cases.items()
+    }
     for name, run in runs.items():
         _, stderr = run.communicate(timeout=120)
         assert run.returncode == EXIT_CLUSTER, (name, stderr)
@@ -172,8 +207,7 @@ def test_stopping_the_cluster_leaves_no_process(cluster):
 def test_an_unreachable_cluster_has_its_own_exit_code_and_writes_nothing(tmp_path, capsys):
     address = f"127.0.0.1:{free_port()}"  # nothing listens there
     out = tmp_path / "new"
-    args = ["run", GRIDWORLD, "--out", str(out), "--quiet", "--backend", "ray",
-            "--address", address]
+    args = ["run", GRIDWORLD, "--out", str(out), "--quiet", "--backend", "ray", "--address", address]
     assert main(args) == EXIT_CLUSTER
     stderr = capsys.readouterr().err
     assert stderr.startswith(f"error: --address {address}: no Ray cluster answers there")
@@ -185,8 +219,10 @@ def test_an_unreachable_cluster_has_its_own_exit_code_and_writes_nothing(tmp_pat
     for name in ("config.toml", "summary.json", "run.json", "replicates/replicate-00000.parquet"):
         (previous / name).write_text(name)
     before = {p: p.read_bytes() for p in previous.rglob("*") if p.is_file()}
-    assert main(["run", GRIDWORLD, "--out", str(previous), "--resume", "--backend", "ray",
-                 "--address", address]) == EXIT_CLUSTER
+    assert (
+        main(["run", GRIDWORLD, "--out", str(previous), "--resume", "--backend", "ray", "--address", address])
+        == EXIT_CLUSTER
+    )
     assert {p: p.read_bytes() for p in previous.rglob("*") if p.is_file()} == before
     # A malformed address is bad input (exit 2), not an unreachable cluster.
     assert main([*args[:-1], "no-port-here"]) == EXIT_USAGE

@@ -107,15 +107,32 @@ def test_optimal_demos_fit_no_finite_beta_and_poor_ones_a_small_one():
     assert min(f.beta for f in fits) - 1e-3 <= noisy.pooled.beta <= max(f.beta for f in fits) + 1e-3
 
 
-TINY_SCENE = ["--set", "domain.params.eval_starts=3", "--set", "demos.max_demos=3",
-              "--set", "domain.params.planning.planner.iterations=4",
-              "--set", "domain.params.planning.seed_directions=1"]
+TINY_SCENE = [
+    "--set",
+    "domain.params.eval_starts=3",
+    "--set",
+    "demos.max_demos=3",
+    "--set",
+    "domain.params.planning.planner.iterations=4",
+    "--set",
+    "domain.params.planning.seed_directions=1",
+]
 
 
 def test_calibrate_cli_on_the_reacher_ranks_demos_against_their_candidates(tmp_path, capsys):
     out = tmp_path / "cal.json"
-    code = main(["calibrate", str(SCENARIOS / "lava_reacher.toml"), "--instances", "1",
-                 "--quiet", "--json", str(out), *TINY_SCENE])
+    code = main(
+        [
+            "calibrate",
+            str(SCENARIOS / "lava_reacher.toml"),
+            "--instances",
+            "1",
+            "--quiet",
+            "--json",
+            str(out),
+            *TINY_SCENE,
+        ]
+    )
     assert code == 0
     data = json.loads(out.read_text())
     (instance,) = data["instances"]
@@ -130,12 +147,15 @@ def test_calibrate_cli_on_the_reacher_ranks_demos_against_their_candidates(tmp_p
     assert "pooled over 1 instance(s): β̂ = " in capsys.readouterr().out
 
 
-@pytest.mark.parametrize(("args", "message"), [
-    (["--instances", "0"], "--instances: expected a positive number, got 0"),
-    (["--json", "{tmp}/x.txt"], "expected a .json file name"),
-    (["--json", "{tmp}/missing/x.json"], "missing does not exist"),
-    (["--set", "demos.beta=-1"], "demos.beta"),
-])
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--instances", "0"], "--instances: expected a positive number, got 0"),
+        (["--json", "{tmp}/x.txt"], "expected a .json file name"),
+        (["--json", "{tmp}/missing/x.json"], "missing does not exist"),
+        (["--set", "demos.beta=-1"], "demos.beta"),
+    ],
+)
 def test_calibrate_cli_errors_are_one_line_before_work(tmp_path, capsys, args, message):
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]
     assert main(["calibrate", str(SCENARIOS / "gridworld.toml"), *args]) == 2

@@ -18,9 +18,15 @@ from mjsuff.experiment.runner import RECORDING, run_scenario
 from mjsuff.recording import Recording
 from tests.conftest import small_scenario
 
-SMALL_SETS = ["replicates=2", "demos.max_demos=3", "posterior.num_samples=120",
-              "posterior.chains=6", "posterior.burn_in=20", "rules.patience=[1]",
-              "rules.validation_intervals=[2]"]
+SMALL_SETS = [
+    "replicates=2",
+    "demos.max_demos=3",
+    "posterior.num_samples=120",
+    "posterior.chains=6",
+    "posterior.burn_in=20",
+    "rules.patience=[1]",
+    "rules.validation_intervals=[2]",
+]
 GRIDWORLD = str(Path(__file__).parent.parent / "scenarios" / "gridworld.toml")
 
 
@@ -44,8 +50,17 @@ def test_run_writes_parseable_outputs(tmp_path):
     rules = {e["rule"] for e in summary["entries"]}
     assert rules == {"nevd", "piob", "patience", "validation"}
     for e in summary["entries"]:
-        for key in ("f1", "accuracy", "bound_error", "demos_needed", "fraction_of_states",
-                    "tpr", "fpr", "policy_optimality", "replicates"):
+        for key in (
+            "f1",
+            "accuracy",
+            "bound_error",
+            "demos_needed",
+            "fraction_of_states",
+            "tpr",
+            "fpr",
+            "policy_optimality",
+            "replicates",
+        ):
             assert key in e
     config = (tmp_path / "r" / "config.toml").read_text()
     assert "num_samples = 120" in config and "rows = 5" in config
@@ -57,11 +72,9 @@ def test_run_writes_parseable_outputs(tmp_path):
 def test_same_seed_gives_identical_summary(tmp_path):
     assert run_cli(tmp_path / "a") == 0
     assert run_cli(tmp_path / "b") == 0
-    assert (tmp_path / "a" / "summary.json").read_bytes() == \
-        (tmp_path / "b" / "summary.json").read_bytes()
+    assert (tmp_path / "a" / "summary.json").read_bytes() == (tmp_path / "b" / "summary.json").read_bytes()
     assert run_cli(tmp_path / "c", "--seed", "99") == 0
-    assert (tmp_path / "a" / "summary.json").read_bytes() != \
-        (tmp_path / "c" / "summary.json").read_bytes()
+    assert (tmp_path / "a" / "summary.json").read_bytes() != (tmp_path / "c" / "summary.json").read_bytes()
 
 
 def test_bad_scenario_exits_2_with_one_line(tmp_path, capsys):
@@ -74,12 +87,15 @@ def test_bad_scenario_exits_2_with_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.parametrize(("setting", "expected"), [
-    ("posterior.rhat_target=1.0", "posterior.rhat_target: input should be greater than 1"),
-    ("posterior.max_steps=70", "posterior.max_steps: at least burn_in + num_samples / chains"),
-    ("posterior.min_ess=20", "posterior.min_ess: the 0.95-confidence bound on the 0.95-VaR"),
-    ("posterior.num_samples=490", "posterior.num_samples: must be a multiple of chains (20)"),
-])
+@pytest.mark.parametrize(
+    ("setting", "expected"),
+    [
+        ("posterior.rhat_target=1.0", "posterior.rhat_target: input should be greater than 1"),
+        ("posterior.max_steps=70", "posterior.max_steps: at least burn_in + num_samples / chains"),
+        ("posterior.min_ess=20", "posterior.min_ess: the 0.95-confidence bound on the 0.95-VaR"),
+        ("posterior.num_samples=490", "posterior.num_samples: must be a multiple of chains (20)"),
+    ],
+)
 def test_bad_convergence_settings_exit_2_with_one_line(tmp_path, capsys, setting, expected):
     out = tmp_path / "o"
     assert main(["run", GRIDWORLD, "--out", str(out), "--set", setting]) == 2
@@ -89,8 +105,12 @@ def test_bad_convergence_settings_exit_2_with_one_line(tmp_path, capsys, setting
 
 
 def test_console_script_exit_code_for_missing_file(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "mjsuff.cli", "run", str(tmp_path / "x.toml")],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "mjsuff.cli", "run", str(tmp_path / "x.toml")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2
     assert "x.toml: file not found" in proc.stderr and "Traceback" not in proc.stderr
 
@@ -177,15 +197,30 @@ def wait_for_group_exit(pgid: int, timeout: float) -> list[int]:
 def start_long_run(out: Path) -> subprocess.Popen:
     """A 50-replicate gridworld run on 2 local workers, in a process group of its own, once its
     first replicate is on disk."""
-    args = [sys.executable, "-m", "mjsuff.cli", "run", GRIDWORLD, "--out", str(out), "--quiet",
-            "--workers", "2"]
+    args = [
+        sys.executable,
+        "-m",
+        "mjsuff.cli",
+        "run",
+        GRIDWORLD,
+        "--out",
+        str(out),
+        "--quiet",
+        "--workers",
+        "2",
+    ]
     for s in [*SMALL_SETS[1:], "replicates=50"]:
         args += ["--set", s]
     # SIGINT back to its default: a test run started in the background inherits it ignored,
     # and Python then never turns it into KeyboardInterrupt.
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        args,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     first = out / "replicates" / "replicate-00000.parquet"
     deadline = time.monotonic() + 120
     while not first.exists() and time.monotonic() < deadline and proc.poll() is None:
@@ -226,8 +261,7 @@ def test_workers_exit_when_the_run_is_killed(tmp_path):
 def test_unconverged_posteriors_are_flagged_and_never_stop(tmp_path, capsys):
     # An R̂ target no sampler reaches and a cap of one short round: every posterior hits the cap.
     out = tmp_path / "r"
-    assert run_cli(out, "--set", "posterior.rhat_target=1.000001",
-                   "--set", "posterior.max_steps=60") == 0
+    assert run_cli(out, "--set", "posterior.rhat_target=1.000001", "--set", "posterior.max_steps=60") == 0
     steps = pd.read_parquet(out / "steps.parquet")
     assert not steps["converged"].any()
     assert (steps["mcmc_steps"] == 60).all()
@@ -236,9 +270,21 @@ def test_unconverged_posteriors_are_flagged_and_never_stop(tmp_path, capsys):
     run = json.loads((out / "run.json").read_text())
     assert run["sampler"]["posteriors"] == 2 * 3
     assert run["sampler"]["unconverged_posteriors"] == 2 * 3
-    main(["run", GRIDWORLD, "--out", str(tmp_path / "printed"), "--backend", "serial",
-          "--set", "posterior.rhat_target=1.000001", "--set", "posterior.max_steps=60",
-          *[x for s in SMALL_SETS for x in ("--set", s)]])
+    main(
+        [
+            "run",
+            GRIDWORLD,
+            "--out",
+            str(tmp_path / "printed"),
+            "--backend",
+            "serial",
+            "--set",
+            "posterior.rhat_target=1.000001",
+            "--set",
+            "posterior.max_steps=60",
+            *[x for s in SMALL_SETS for x in ("--set", s)],
+        ]
+    )
     assert "6 hit the step cap (60) first" in capsys.readouterr().out
 
 
@@ -257,8 +303,7 @@ def test_run_takes_a_shipped_scenario_by_name_unless_a_file_has_that_name(tmp_pa
 
 
 @pytest.mark.parametrize("command", ["run", "demos", "calibrate"])
-def test_unknown_scenario_name_is_one_line_listing_the_shipped_ones(tmp_path, monkeypatch, capsys,
-                                                                    command):
+def test_unknown_scenario_name_is_one_line_listing_the_shipped_ones(tmp_path, monkeypatch, capsys, command):
     monkeypatch.chdir(tmp_path)
     assert main([command, "nonesuch"]) == 2
     err = capsys.readouterr().err.strip()
@@ -282,8 +327,10 @@ def test_scenarios_lists_the_shipped_ones(capsys):
         assert s["name"] in table and s["description"] in table
 
 
-@pytest.mark.parametrize("command", [["scenarios"], ["hoeffding", "--gamma", "0.999"],
-                                     ["calibrate", "gridworld", "--instances", "1"]])
+@pytest.mark.parametrize(
+    "command",
+    [["scenarios"], ["hoeffding", "--gamma", "0.999"], ["calibrate", "gridworld", "--instances", "1"]],
+)
 def test_tables_keep_whole_columns_off_a_terminal(monkeypatch, capsys, command):
     # Off a terminal rich would fit the table to COLUMNS (80 by default) and cut cells with "…".
     monkeypatch.setenv("COLUMNS", "30")
@@ -295,30 +342,72 @@ def test_tables_keep_whole_columns_off_a_terminal(monkeypatch, capsys, command):
 
 def table_rows(text: str) -> list[list[str]]:
     """The cells of every body row of the rich tables in ``text``."""
-    return [[cell.strip() for cell in line.strip().strip("│").split("│")]
-            for line in text.splitlines() if line.startswith("│")]
+    return [
+        [cell.strip() for cell in line.strip().strip("│").split("│")]
+        for line in text.splitlines()
+        if line.startswith("│")
+    ]
 
 
 def test_run_summary_is_whole_in_a_log(tmp_path):
     # stdout a pipe, no terminal anywhere: what `mjsuff run ... > log` prints.
     env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
-    proc = subprocess.run([sys.executable, "-m", "mjsuff.cli", "run", GRIDWORLD, "--out",
-                           str(tmp_path / "r"), "--backend", "serial", "--no-record",
-                           *[x for s in SMALL_SETS for x in ("--set", s)]],
-                          capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL,
-                          env=env)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mjsuff.cli",
+            "run",
+            GRIDWORLD,
+            "--out",
+            str(tmp_path / "r"),
+            "--backend",
+            "serial",
+            "--no-record",
+            *[x for s in SMALL_SETS for x in ("--set", s)],
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        stdin=subprocess.DEVNULL,
+        env=env,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "…" not in proc.stdout
     header = next(line for line in proc.stdout.splitlines() if line.startswith("┃"))
     assert [c.strip() for c in header.strip("┃").split("┃")] == [
-        "rule", "param", "ε", "F1", "accuracy", "bound err", "demos", "± sem", "states", "TPR",
-        "FPR", "optimality"]
+        "rule",
+        "param",
+        "ε",
+        "F1",
+        "accuracy",
+        "bound err",
+        "demos",
+        "± sem",
+        "states",
+        "TPR",
+        "FPR",
+        "optimality",
+    ]
     entries = json.loads((tmp_path / "r" / "summary.json").read_text())["entries"]
-    expected = [[e["rule"], f"{e['param']:g}", f"{e['epsilon']:g}", _fmt(e["f1"]),
-                 _fmt(e["accuracy"]), _fmt(e["bound_error"], 3), _fmt(e["demos_needed"], 1),
-                 _fmt(e["demos_needed_sem"], 1), _fmt(e["fraction_of_states"]), _fmt(e["tpr"]),
-                 _fmt(e["fpr"]), _fmt(e["policy_optimality"])]
-                for e in entries if e["rule"] in ("nevd", "piob") or e["epsilon"] == 0.3]
+    expected = [
+        [
+            e["rule"],
+            f"{e['param']:g}",
+            f"{e['epsilon']:g}",
+            _fmt(e["f1"]),
+            _fmt(e["accuracy"]),
+            _fmt(e["bound_error"], 3),
+            _fmt(e["demos_needed"], 1),
+            _fmt(e["demos_needed_sem"], 1),
+            _fmt(e["fraction_of_states"]),
+            _fmt(e["tpr"]),
+            _fmt(e["fpr"]),
+            _fmt(e["policy_optimality"]),
+        ]
+        for e in entries
+        if e["rule"] in ("nevd", "piob") or e["epsilon"] == 0.3
+    ]
     assert table_rows(proc.stdout) == expected
     # Nor is a line of text wrapped: the results line names the run directory whole.
     assert f"mjsuff report {tmp_path / 'r'} for figures" in proc.stdout

@@ -69,11 +69,14 @@ def test_same_seed_same_search():
     np.testing.assert_array_equal(mean_a, mean_b)
 
 
-@pytest.mark.parametrize(("mean", "sigma", "population", "message"), [
-    (np.full((1, 3), 0.5), 0.1, 3, "population of at least 4"),
-    (np.full((1, 3), 0.5), 0.0, 8, "step size must be > 0"),
-    (np.full((1, 3), 1.5), 0.1, 8, "unit cube"),
-])
+@pytest.mark.parametrize(
+    ("mean", "sigma", "population", "message"),
+    [
+        (np.full((1, 3), 0.5), 0.1, 3, "population of at least 4"),
+        (np.full((1, 3), 0.5), 0.0, 8, "step size must be > 0"),
+        (np.full((1, 3), 1.5), 0.1, 8, "unit cube"),
+    ],
+)
 def test_invalid_settings_are_clear_errors(mean, sigma, population, message):
     with pytest.raises(ValueError, match=message):
         BatchedCMAES(mean, sigma, population)

@@ -123,15 +123,25 @@ def test_truth_file_problems_are_named(saved, tmp_path):
 
 
 def run_cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "mjsuff.cli", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "mjsuff.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=300
+    )
 
 
 def test_cli_writes_a_loadable_set_and_refuses_bad_requests(tmp_path):
     out = tmp_path / "d.npz"
     sets = [a for o in OVERRIDES for a in ("--set", o)]
-    done = run_cli("demos", str(ROOT / "scenarios/lava_reacher.toml"), "--count", "1",
-                   "--out", str(out), "--quiet", *sets, cwd=tmp_path)
+    done = run_cli(
+        "demos",
+        str(ROOT / "scenarios/lava_reacher.toml"),
+        "--count",
+        "1",
+        "--out",
+        str(out),
+        "--quiet",
+        *sets,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     assert "demos/s" in done.stdout and len(load_demo_set(out)) == 1
     again = run_cli("demos", str(ROOT / "scenarios/lava_reacher.toml"), "--out", str(out), cwd=tmp_path)

@@ -61,8 +61,9 @@ def test_instances_are_reproducible_and_vary_by_seed(name):
     c = spec.make(None, np.random.default_rng(6))
     assert np.array_equal(a.true_weights, b.true_weights)
     assert np.array_equal(a.mdp.features, b.mdp.features)
-    assert not (np.array_equal(a.true_weights, c.true_weights)
-                and np.array_equal(a.mdp.features, c.mdp.features))
+    assert not (
+        np.array_equal(a.true_weights, c.true_weights) and np.array_equal(a.mdp.features, c.mdp.features)
+    )
 
 
 def test_gridworld_goal_is_absorbing_with_the_largest_weight():

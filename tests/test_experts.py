@@ -16,8 +16,10 @@ from mjsuff.scenes.perturbation import perturb_controls
 from mjsuff.scenes.planner import SamplingPlanner
 
 STARTS = 3
-SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
-          "lander": (Lander, LanderParams, LanderExpert)}
+SCENES = {
+    "lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
+    "lander": (Lander, LanderParams, LanderExpert),
+}
 # Stated gaps (mean over the starts), against a planner without a library. Measured on these
 # seeds: reacher 0.001–0.054, mean 0.029 (two hazards that cost 3× more than in v0.1: a 3-knot fit
 # of the expert's path pays for near misses the planner's free search avoids); lander 0.14-0.18
@@ -43,10 +45,14 @@ def test_demos_are_near_the_planners_optimum(setup):
     name, scene, expert = setup
     w = -unit([0.5, 0.6, 0.4, 0.3, 0.4, 0.4][: scene.num_features])
     demos = [expert.demonstrate(scene.starts[s], w, np.random.default_rng(s)) for s in range(STARTS)]
-    planned = SamplingPlanner(scene, scene.planner_config).plan(
-        np.arange(STARTS), np.tile(w, (STARTS, 1)), np.random.default_rng(0)).values
-    _, random_features = scene.simulate(np.repeat(scene.starts, 32, axis=0),
-                                        scene.spline.uniform(np.random.default_rng(1), 32 * STARTS))
+    planned = (
+        SamplingPlanner(scene, scene.planner_config)
+        .plan(np.arange(STARTS), np.tile(w, (STARTS, 1)), np.random.default_rng(0))
+        .values
+    )
+    _, random_features = scene.simulate(
+        np.repeat(scene.starts, 32, axis=0), scene.spline.uniform(np.random.default_rng(1), 32 * STARTS)
+    )
     v_rand = np.nanmean(random_features.reshape(STARTS, 32, -1), axis=1) @ w
     values = np.array([d.value for d in demos])
     np.testing.assert_allclose(values, [d.features @ w for d in demos])
@@ -61,14 +67,19 @@ def test_reacher_executes_the_spline_nearest_its_reference():
     the slowest paths (1.4 s), 8–12 cm for the fast ones the expert prefers (0.5–1.1 s)."""
     scene = LavaReacher(LavaReacherParams(eval_starts=4), np.random.default_rng(3))
     expert = ReacherExpert(scene, ExpertSettings(refine_rounds=0))
-    for s, w in enumerate([[-0.3, -0.9, -0.9, -0.3], [-0.9, -0.05, -0.05, -0.4], [-0.2, -0.2, -0.2, -0.96],
-                             [-1, -1, -1, -0.1]]):
+    for s, w in enumerate(
+        [[-0.3, -0.9, -0.9, -0.3], [-0.9, -0.05, -0.05, -0.4], [-0.2, -0.2, -0.2, -0.96], [-1, -1, -1, -0.1]]
+    ):
         demo = expert.demonstrate(scene.starts[s], unit(w), np.random.default_rng(s))
         assert demo.tracking_error <= 0.15, demo.tracking_error
         assert demo.qpos.shape == (scene.spline.num_steps, 3) and np.isfinite(demo.qpos).all()
     # The slow straight path, from the first start whose IK can track it (not all can).
-    tracked = [(q, done) for q in scene.starts
-               for done in [expert.execute(q, np.array([[0.0, 1.4, 1.0]]))[0]] if len(done.params)]
+    tracked = [
+        (q, done)
+        for q in scene.starts
+        for done in [expert.execute(q, np.array([[0.0, 1.4, 1.0]]))[0]]
+        if len(done.params)
+    ]
     assert tracked
     start, slow = tracked[0]
     assert slow.tracking_error[0] <= 0.08, slow.tracking_error
@@ -93,10 +104,12 @@ def test_lander_fuel_weight_trades_fuel_for_a_harder_landing():
     scene = Lander(LanderParams(eval_starts=2), np.random.default_rng(0))
     expert = LanderExpert(scene)
     start = scene.starts[0]
-    frugal = expert.demonstrate(start, unit([-0.3, -0.05, -0.95, -0.1, -0.05, -0.05]),
-                                np.random.default_rng(0))
-    gentle = expert.demonstrate(start, unit([-0.3, -0.95, -0.05, -0.1, -0.05, -0.05]),
-                                np.random.default_rng(0))
+    frugal = expert.demonstrate(
+        start, unit([-0.3, -0.05, -0.95, -0.1, -0.05, -0.05]), np.random.default_rng(0)
+    )
+    gentle = expert.demonstrate(
+        start, unit([-0.3, -0.95, -0.05, -0.1, -0.05, -0.05]), np.random.default_rng(0)
+    )
     assert frugal.features[2] < gentle.features[2]  # fuel
     assert frugal.features[1] > 2 * gentle.features[1]  # impact
 
@@ -108,8 +121,9 @@ def test_poor_and_boltzmann_demos(setup):
     poor = expert.demonstrate(scene.starts[0], w, np.random.default_rng(0), poor=True)
     assert poor.poor and poor.value < best.value
     noisy = type(expert)(scene, ExpertSettings(rationality=1.0, refine_rounds=0))
-    values = {round(noisy.demonstrate(scene.starts[0], w, np.random.default_rng(i)).value, 9)
-              for i in range(6)}
+    values = {
+        round(noisy.demonstrate(scene.starts[0], w, np.random.default_rng(i)).value, 9) for i in range(6)
+    }
     assert len(values) > 1  # low rationality: different choices under different seeds
 
 
@@ -148,12 +162,12 @@ def test_ik_failures_are_counted_and_an_all_failed_start_is_an_error():
 def test_scene_domain_demonstrates_through_its_expert():
     from mjsuff.domains import get_domain
 
-    domain = get_domain("lava_reacher").make({"eval_starts": 2, "pool_starts": 2},
-                                             np.random.default_rng(0))
+    domain = get_domain("lava_reacher").make({"eval_starts": 2, "pool_starts": 2}, np.random.default_rng(0))
     demo = domain.demonstrate(1, np.random.default_rng(0))
     assert demo.start == 1 and not demo.poor
-    direct = domain.expert.demonstrate(domain.scene.pool_starts[1], domain.true_weights,
-                                       np.random.default_rng(0))
+    direct = domain.expert.demonstrate(
+        domain.scene.pool_starts[1], domain.true_weights, np.random.default_rng(0)
+    )
     np.testing.assert_array_equal(demo.data["features"], direct.features)
     np.testing.assert_array_equal(demo.data["controls"], direct.controls)
 

@@ -9,18 +9,31 @@ from mjsuff.experiment.measures import measure_group, summarize
 
 
 def rows(replicate, decisions, nevds, bounds, pool_size=10, rule="nevd", param=0.2):
-    return [{"replicate": replicate, "rule": rule, "param": param, "step": i + 1,
-             "decision": d, "true_nevd": n, "true_piob": 0.0, "true_value": n, "bound": b,
-             "policy_optimality": 1.0 - n, "pool_size": pool_size}
-            for i, (d, n, b) in enumerate(zip(decisions, nevds, bounds, strict=True))]
+    return [
+        {
+            "replicate": replicate,
+            "rule": rule,
+            "param": param,
+            "step": i + 1,
+            "decision": d,
+            "true_nevd": n,
+            "true_piob": 0.0,
+            "true_value": n,
+            "bound": b,
+            "policy_optimality": 1.0 - n,
+            "pool_size": pool_size,
+        }
+        for i, (d, n, b) in enumerate(zip(decisions, nevds, bounds, strict=True))
+    ]
 
 
 def test_stop_decisions_give_the_confusion_counts_and_f1():
     frame = pd.DataFrame(
-        rows(0, [False, True, True], [0.5, 0.1, 0.0], [0.9, 0.15, 0.05])     # TP at step 2
-        + rows(1, [True, True, True], [0.4, 0.3, 0.0], [0.1, 0.1, 0.1])      # FP at step 1
-        + rows(2, [False, False, False], [0.5, 0.3, 0.1], [0.9, 0.8, 0.7])   # FN (final 0.1)
-        + rows(3, [False, False, False], [0.5, 0.4, 0.3], [0.9, 0.8, 0.7]))  # TN
+        rows(0, [False, True, True], [0.5, 0.1, 0.0], [0.9, 0.15, 0.05])  # TP at step 2
+        + rows(1, [True, True, True], [0.4, 0.3, 0.0], [0.1, 0.1, 0.1])  # FP at step 1
+        + rows(2, [False, False, False], [0.5, 0.3, 0.1], [0.9, 0.8, 0.7])  # FN (final 0.1)
+        + rows(3, [False, False, False], [0.5, 0.4, 0.3], [0.9, 0.8, 0.7])
+    )  # TN
     m = measure_group(frame, improvement=False, threshold=0.2)
     assert (m["tp"], m["fp"], m["fn"], m["tn"]) == (1, 1, 1, 1)
     assert m["f1"] == pytest.approx(1 / (1 + 0.5 * 2))
@@ -33,9 +46,10 @@ def test_stop_decisions_give_the_confusion_counts_and_f1():
 
 
 def test_baselines_are_scored_at_every_nevd_threshold():
-    frame = pd.DataFrame(rows(0, [True, True], [0.3, 0.0], [math.nan] * 2,
-                              rule="patience", param=1.0)
-                         + rows(0, [False, True], [0.3, 0.0], [0.5, 0.1]))
+    frame = pd.DataFrame(
+        rows(0, [True, True], [0.3, 0.0], [math.nan] * 2, rule="patience", param=1.0)
+        + rows(0, [False, True], [0.3, 0.0], [0.5, 0.1])
+    )
     summary = summarize(frame, nevd_thresholds=[0.1, 0.5])
     patience = [e for e in summary["entries"] if e["rule"] == "patience"]
     assert [e["epsilon"] for e in patience] == [0.1, 0.5]
@@ -48,9 +62,10 @@ def paper_frame():
     """Every step a decision (eps = 0.2): TP 2, FP 2, FN 4, TN 1; sufficient at steps 2, 3
     (pool 10) and 1, 2 (pool 4)."""
     return pd.DataFrame(
-        rows(0, [False, True, True], [0.5, 0.1, 0.0], [0.9, 0.1, 0.1])              # TN TP TP
+        rows(0, [False, True, True], [0.5, 0.1, 0.0], [0.9, 0.1, 0.1])  # TN TP TP
         + rows(1, [True, True, False], [0.4, 0.3, 0.1], [0.1, 0.1, 0.9], pool_size=4)  # FP FP FN
-        + rows(2, [False, False, False], [0.1, 0.1, 0.1], [0.9, 0.9, 0.9]))         # FN FN FN
+        + rows(2, [False, False, False], [0.1, 0.1, 0.1], [0.9, 0.9, 0.9])
+    )  # FN FN FN
 
 
 def test_paper_measures_count_every_step_and_read_fn_as_one():
@@ -83,8 +98,9 @@ def test_paper_measures_of_the_piob_rule_use_improvement_truth():
 
 
 def test_summary_entries_carry_the_paper_measures_for_baselines_at_every_threshold():
-    frame = pd.DataFrame(rows(0, [False, True, True], [0.3, 0.15, 0.0], [math.nan] * 3,
-                              rule="patience", param=1.0))
+    frame = pd.DataFrame(
+        rows(0, [False, True, True], [0.3, 0.15, 0.0], [math.nan] * 3, rule="patience", param=1.0)
+    )
     entries = summarize(frame, nevd_thresholds=[0.1, 0.2])["entries"]
     assert [e["epsilon"] for e in entries] == [0.1, 0.2]
     # eps 0.1: steps 2 (0.15, FP) and 3 (TP); eps 0.2: both TP.

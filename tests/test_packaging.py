@@ -21,23 +21,52 @@ ROOT = Path(__file__).resolve().parent.parent
 #: What a build reads: the project files and the three folders that ship.
 SOURCES = ("pyproject.toml", "setup.py", "README.md", "mjsuff", "models", "scenarios")
 #: The smallest lava-reacher run that still simulates the model, asks the expert and plans.
-TINY = ["--replicates", "1", "--backend", "serial", "--no-record",
-        "--set", "domain.params.eval_starts=2", "--set", "domain.params.horizon=1.0",
-        "--set", "demos.max_demos=1", "--set", "posterior.num_samples=100",
-        "--set", "domain.params.planning.planner={population=16, elites=4, iterations=2}",
-        "--set", "domain.params.planning.seed_planner={population=16, elites=4, iterations=2}",
-        "--set", "domain.params.planning.seed_directions=1",
-        "--set", "domain.params.planning.refine_rounds=0",
-        "--set", "domain.params.planning.truth_scale=1.0", "--set", "expert.refine_rounds=0",
-        "--set", "rules.validation_intervals=[2]", "--set", "rules.patience=[1]"]
+TINY = [
+    "--replicates",
+    "1",
+    "--backend",
+    "serial",
+    "--no-record",
+    "--set",
+    "domain.params.eval_starts=2",
+    "--set",
+    "domain.params.horizon=1.0",
+    "--set",
+    "demos.max_demos=1",
+    "--set",
+    "posterior.num_samples=100",
+    "--set",
+    "domain.params.planning.planner={population=16, elites=4, iterations=2}",
+    "--set",
+    "domain.params.planning.seed_planner={population=16, elites=4, iterations=2}",
+    "--set",
+    "domain.params.planning.seed_directions=1",
+    "--set",
+    "domain.params.planning.refine_rounds=0",
+    "--set",
+    "domain.params.planning.truth_scale=1.0",
+    "--set",
+    "expert.refine_rounds=0",
+    "--set",
+    "rules.validation_intervals=[2]",
+    "--set",
+    "rules.patience=[1]",
+]
 #: Without PYTHONPATH, nothing but the venv decides where mjsuff is imported from.
 ENV = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
 
 
 def sh(*command: str | Path, cwd: Path | None = None, timeout: float = 300) -> str:
     """Run a command; its stdout, or a failure showing its output."""
-    proc = subprocess.run([str(c) for c in command], cwd=cwd, env=ENV, capture_output=True,
-                          text=True, timeout=timeout, stdin=subprocess.DEVNULL)
+    proc = subprocess.run(
+        [str(c) for c in command],
+        cwd=cwd,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        stdin=subprocess.DEVNULL,
+    )
     assert proc.returncode == 0, f"{command} exited {proc.returncode}:\n{proc.stdout}\n{proc.stderr}"
     return proc.stdout
 
@@ -47,8 +76,7 @@ def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
     source = tmp_path_factory.mktemp("source")
     for name in SOURCES:
         if (ROOT / name).is_dir():
-            shutil.copytree(ROOT / name, source / name,
-                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+            shutil.copytree(ROOT / name, source / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         else:
             shutil.copy2(ROOT / name, source / name)
     out = tmp_path_factory.mktemp("wheel")
@@ -82,12 +110,21 @@ def test_wheel_runs_a_scene_outside_the_checkout(wheel, tmp_path):
     work = tmp_path / "work"
     work.mkdir()
     assert ROOT not in work.parents
-    where = json.loads(sh(python, "-c", "import json, mjsuff; from mjsuff.scenes.scene import "
-                          "model_path; print(json.dumps([mjsuff.__file__, "
-                          "str(model_path('lava_reacher.xml'))]))", cwd=work))
+    where = json.loads(
+        sh(
+            python,
+            "-c",
+            "import json, mjsuff; from mjsuff.scenes.scene import "
+            "model_path; print(json.dumps([mjsuff.__file__, "
+            "str(model_path('lava_reacher.xml'))]))",
+            cwd=work,
+        )
+    )
     site = venv / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}" / "site-packages"
-    assert [Path(p) for p in where] == [site / "mjsuff" / "__init__.py",
-                                        site / "mjsuff" / "models" / "lava_reacher.xml"]
+    assert [Path(p) for p in where] == [
+        site / "mjsuff" / "__init__.py",
+        site / "mjsuff" / "models" / "lava_reacher.xml",
+    ]
     # `mjsuff scenarios` lists the wheel's copies; `mjsuff run NAME` runs one of them.
     shipped = json.loads(sh(mjsuff, "scenarios", "--json", cwd=work))
     assert {s["name"] for s in shipped} == {p.stem for p in (ROOT / "scenarios").glob("*.toml")}

@@ -12,11 +12,19 @@ DEMOS = 10
 @pytest.fixture(scope="module")
 def alpha_runs(tmp_path_factory):
     """Figure 2: the nEVD bound alone, at three quantile levels."""
-    return {alpha: run(tmp_path_factory, "gridworld", f"sufficiency.alpha={alpha}",
-                       f"demos.max_demos={DEMOS}",
-                       "rules.patience=[]", "rules.validation_intervals=[]",
-                       "rules.piob_thresholds=[]", "rules.nevd_thresholds=[0.1]")
-            for alpha in (0.90, 0.95, 0.99)}
+    return {
+        alpha: run(
+            tmp_path_factory,
+            "gridworld",
+            f"sufficiency.alpha={alpha}",
+            f"demos.max_demos={DEMOS}",
+            "rules.patience=[]",
+            "rules.validation_intervals=[]",
+            "rules.piob_thresholds=[]",
+            "rules.nevd_thresholds=[0.1]",
+        )
+        for alpha in (0.90, 0.95, 0.99)
+    }
 
 
 @pytest.mark.parametrize("alpha", [0.90, 0.95, 0.99])

@@ -29,9 +29,17 @@ def test_recording_has_the_expected_entities_and_timelines(grid_run):
     recording = Recording(directory / RECORDING)
     paths = recording.entity_paths()
     for r in steps["replicate"].unique():
-        for entity in ("grid/cells", "grid/pi_map", "posterior/samples", "posterior/w_map",
-                       "posterior/w_true", "log", "rules/nevd_0.2/bound",
-                       "rules/nevd_0.2/threshold", "rules/patience_1/true_value"):
+        for entity in (
+            "grid/cells",
+            "grid/pi_map",
+            "posterior/samples",
+            "posterior/w_map",
+            "posterior/w_true",
+            "log",
+            "rules/nevd_0.2/bound",
+            "rules/nevd_0.2/threshold",
+            "rules/patience_1/true_value",
+        ):
             assert f"/r{r}/{entity}" in paths, entity
     assert "/run/scenario" in paths
     assert "demo" in recording.timelines()
@@ -46,13 +54,15 @@ def test_series_equal_the_values_in_steps_parquet(grid_run):
         base = f"r{r}/rules/{rule}_{param:g}"
         table = recording.series(f"{base}/true_value", "Scalars:scalars", "demo")
         assert table.column("demo").to_pylist() == rows["step"].tolist()
-        np.testing.assert_array_equal([v[0] for v in table.column(1).to_pylist()],
-                                      rows["true_value"].to_numpy())
+        np.testing.assert_array_equal(
+            [v[0] for v in table.column(1).to_pylist()], rows["true_value"].to_numpy()
+        )
         if rule in ("nevd", "piob"):
             bound = recording.series(f"{base}/bound", "Scalars:scalars", "demo")
             finite = rows[np.isfinite(rows["bound"])]
-            np.testing.assert_array_equal([v[0] for v in bound.column(1).to_pylist()],
-                                          finite["bound"].to_numpy())
+            np.testing.assert_array_equal(
+                [v[0] for v in bound.column(1).to_pylist()], finite["bound"].to_numpy()
+            )
 
 
 def test_posterior_samples_and_marks(grid_run):
@@ -67,8 +77,9 @@ def test_posterior_samples_and_marks(grid_run):
 @pytest.mark.skipif(shutil.which("rerun") is None, reason="the rerun CLI is not on PATH")
 def test_rerun_verifies_the_file(grid_run):
     directory, _ = grid_run
-    done = subprocess.run(["rerun", "rrd", "verify", str(directory / RECORDING)],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        ["rerun", "rrd", "verify", str(directory / RECORDING)], capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 0, done.stderr
 
 
@@ -77,8 +88,7 @@ def test_no_record_writes_no_recording(tmp_path):
     assert not (tmp_path / "o" / RECORDING).exists()
 
 
-@pytest.mark.parametrize("scene_type, params", [(LavaReacher, LavaReacherParams),
-                                                (Lander, LanderParams)])
+@pytest.mark.parametrize("scene_type, params", [(LavaReacher, LavaReacherParams), (Lander, LanderParams)])
 def test_geom_poses_in_the_file_equal_mujocos(tmp_path, scene_type, params):
     scene = scene_type(params(eval_starts=2), np.random.default_rng(0))
     model = scene.model
@@ -113,8 +123,7 @@ def test_geom_poses_in_the_file_equal_mujocos(tmp_path, scene_type, params):
             b_pos, b_rot = np.zeros(3), np.eye(3)
         else:
             when = np.timedelta64(round(times[frame] * 1e9), "ns")
-            b_pos = np.array(recording.latest_at(body, "Transform3D:translation", "sim_time",
-                                                 when)[0])
+            b_pos = np.array(recording.latest_at(body, "Transform3D:translation", "sim_time", when)[0])
             bq = recording.latest_at(body, "Transform3D:quaternion", "sim_time", when)[0]
             b_rot = _rotation(bq)
         world_pos = b_pos + b_rot @ np.array(offset[0])
@@ -195,15 +204,23 @@ def test_every_geom_type_is_drawn(tmp_path):
     logger.log_geometry()
     rec.disconnect()
     recording = Recording(path)
-    shapes = {"world/geom_floor": "Boxes3D:half_sizes", "thing/geom_box": "Boxes3D:half_sizes",
-              "thing/geom_ball": "Ellipsoids3D:half_sizes", "thing/geom_pill": "Capsules3D:radii",
-              "thing/geom_can": "Cylinders3D:radii", "thing/geom_egg": "Ellipsoids3D:half_sizes",
-              "thing/geom_tetra": "Mesh3D:vertex_positions", "thing/site_tip": "Ellipsoids3D:half_sizes"}
+    shapes = {
+        "world/geom_floor": "Boxes3D:half_sizes",
+        "thing/geom_box": "Boxes3D:half_sizes",
+        "thing/geom_ball": "Ellipsoids3D:half_sizes",
+        "thing/geom_pill": "Capsules3D:radii",
+        "thing/geom_can": "Cylinders3D:radii",
+        "thing/geom_egg": "Ellipsoids3D:half_sizes",
+        "thing/geom_tetra": "Mesh3D:vertex_positions",
+        "thing/site_tip": "Ellipsoids3D:half_sizes",
+    }
     for entity, component in shapes.items():
         assert recording.static(f"s/bodies/{entity}", component) is not None, entity
-    np.testing.assert_allclose(recording.static("s/bodies/thing/geom_box", "Boxes3D:half_sizes"),
-                               [[0.1, 0.2, 0.05]])
+    np.testing.assert_allclose(
+        recording.static("s/bodies/thing/geom_box", "Boxes3D:half_sizes"), [[0.1, 0.2, 0.05]]
+    )
     # The capsule keeps its MuJoCo length (fromto: 0.2 x 0.1) and radius.
     assert recording.static("s/bodies/thing/geom_pill", "Capsules3D:lengths")[0] == pytest.approx(
-        np.hypot(0.2, 0.1), rel=1e-6)
+        np.hypot(0.2, 0.1), rel=1e-6
+    )
     assert len(recording.static("s/bodies/thing/geom_tetra", "Mesh3D:vertex_positions")) == 4

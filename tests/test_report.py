@@ -23,8 +23,9 @@ PNG = b"\x89PNG\r\n\x1a\n"
 @pytest.fixture(scope="module")
 def sweep_run(tmp_path_factory):
     directory = tmp_path_factory.mktemp("sweep") / "run"
-    run_scenario(small_scenario(replicates=3, sweep={"demos.noise_fraction": [0.0, 0.4]}),
-                 directory, record=False)
+    run_scenario(
+        small_scenario(replicates=3, sweep={"demos.noise_fraction": [0.0, 0.4]}), directory, record=False
+    )
     return directory
 
 
@@ -33,8 +34,9 @@ def test_report_writes_figures_linked_from_markdown(sweep_run, capsys):
     out = sweep_run / "report"
     text = (out / "report.md").read_text()
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
-    assert {"bound_vs_demos.png", "noise_ablation.png", "f1_and_demos_00.png",
-            "f1_and_demos_01.png"} <= set(links)
+    assert {"bound_vs_demos.png", "noise_ablation.png", "f1_and_demos_00.png", "f1_and_demos_01.png"} <= set(
+        links
+    )
     for link in links:
         assert (out / link).read_bytes()[:8] == PNG and (out / link).stat().st_size > 10_000
     assert "Kruskal-Wallis" in text and "Dunn" in text and "noise_fraction = 0.4" in text
@@ -66,22 +68,31 @@ def test_bootstrap_se_of_f1():
 
 def test_rule_comparison_matches_scipy_and_separates_groups():
     rng = np.random.default_rng(1)
-    values = pd.DataFrame({"rule": ["nevd"] * 30 + ["patience"] * 30 + ["validation"] * 30,
-                           "demos": np.r_[rng.normal(3, 1, 30), rng.normal(3, 1, 30),
-                                          rng.normal(9, 1, 30)]})
+    values = pd.DataFrame(
+        {
+            "rule": ["nevd"] * 30 + ["patience"] * 30 + ["validation"] * 30,
+            "demos": np.r_[rng.normal(3, 1, 30), rng.normal(3, 1, 30), rng.normal(9, 1, 30)],
+        }
+    )
     result = compare_rules(values, "demos")
-    h, p = stats.kruskal(*(values.loc[values["rule"] == r, "demos"] for r in
-                           ("nevd", "patience", "validation")))
+    h, p = stats.kruskal(
+        *(values.loc[values["rule"] == r, "demos"] for r in ("nevd", "patience", "validation"))
+    )
     assert result.h == pytest.approx(h) and result.p == pytest.approx(p)
     assert result.dunn.loc["nevd", "validation"] < 0.001  # far apart
-    assert result.dunn.loc["nevd", "patience"] > 0.05     # drawn from the same distribution
+    assert result.dunn.loc["nevd", "patience"] > 0.05  # drawn from the same distribution
     assert compare_rules(values.assign(demos=1.0), "demos") is None  # no variation: no test
 
 
 def test_outcomes_follow_the_stopping_step():
-    steps = pd.DataFrame({"replicate": [0, 0, 0, 1, 1, 1], "step": [1, 2, 3] * 2,
-                          "decision": [False, True, True, False, False, False],
-                          "true_nevd": [0.5, 0.1, 0.0, 0.5, 0.4, 0.05]})
+    steps = pd.DataFrame(
+        {
+            "replicate": [0, 0, 0, 1, 1, 1],
+            "step": [1, 2, 3] * 2,
+            "decision": [False, True, True, False, False, False],
+            "true_nevd": [0.5, 0.1, 0.0, 0.5, 0.4, 0.05],
+        }
+    )
     codes, needed = replicate_outcomes(steps, 0.2)
     assert codes.tolist() == [0, 2] and needed.tolist() == [2, 3]  # TP at 2; FN, ran to 3
 
@@ -94,32 +105,52 @@ def test_not_a_run_is_a_clear_error(tmp_path, capsys):
 
 
 def _steps(rule, param, replicate, decisions, nevds):
-    return [{"rule": rule, "param": param, "replicate": replicate, "step": i + 1, "decision": d,
-             "true_nevd": n, "pool_size": 2} for i, (d, n) in enumerate(zip(decisions, nevds,
-                                                                                strict=True))]
+    return [
+        {
+            "rule": rule,
+            "param": param,
+            "replicate": replicate,
+            "step": i + 1,
+            "decision": d,
+            "true_nevd": n,
+            "pool_size": 2,
+        }
+        for i, (d, n) in enumerate(zip(decisions, nevds, strict=True))
+    ]
 
 
 def test_rule_observations_are_one_per_replicate_and_rule_averaged_over_parameters():
     """nEVD at its own ε, baselines at every ε (0.1, 0.5); PIOB left out."""
     steps = pd.DataFrame(
-        _steps("nevd", 0.1, 0, [False, True], [0.3, 0.05])      # stop 2, TP
-        + _steps("nevd", 0.1, 1, [False, False], [0.3, 0.2])    # TN
-        + _steps("nevd", 0.5, 0, [True, True], [0.3, 0.05])     # stop 1, TP
-        + _steps("nevd", 0.5, 1, [False, False], [0.3, 0.2])    # FN
-        + _steps("patience", 1.0, 0, [False, True], [0.3, 0.0])   # stop 2: TP, TP
-        + _steps("patience", 1.0, 1, [True, True], [0.3, 0.3])    # stop 1: FP, TP
+        _steps("nevd", 0.1, 0, [False, True], [0.3, 0.05])  # stop 2, TP
+        + _steps("nevd", 0.1, 1, [False, False], [0.3, 0.2])  # TN
+        + _steps("nevd", 0.5, 0, [True, True], [0.3, 0.05])  # stop 1, TP
+        + _steps("nevd", 0.5, 1, [False, False], [0.3, 0.2])  # FN
+        + _steps("patience", 1.0, 0, [False, True], [0.3, 0.0])  # stop 2: TP, TP
+        + _steps("patience", 1.0, 1, [True, True], [0.3, 0.3])  # stop 1: FP, TP
         + _steps("patience", 2.0, 0, [False, False], [0.3, 0.0])  # FN, FN
-        + _steps("patience", 2.0, 1, [False, True], [0.3, 0.3])   # stop 2: FP, TP
+        + _steps("patience", 2.0, 1, [False, True], [0.3, 0.3])  # stop 2: FP, TP
         + _steps("validation", 3.0, 0, [False, False], [0.6, 0.6])  # TN, TN
         + _steps("validation", 3.0, 1, [False, True], [0.6, 0.05])  # stop 2: TP, TP
-        + _steps("piob", 0.4, 0, [True, True], [0.0, 0.0]))
+        + _steps("piob", 0.4, 0, [True, True], [0.0, 0.0])
+    )
     quality, demos = observations(steps, [0.1, 0.5])
     assert quality.set_index(["rule", "replicate"])["correct"].to_dict() == {
-        ("nevd", 0): 1.0, ("nevd", 1): 0.5, ("patience", 0): 0.5, ("patience", 1): 0.5,
-        ("validation", 0): 1.0, ("validation", 1): 1.0}
+        ("nevd", 0): 1.0,
+        ("nevd", 1): 0.5,
+        ("patience", 0): 0.5,
+        ("patience", 1): 0.5,
+        ("validation", 0): 1.0,
+        ("validation", 1): 1.0,
+    }
     assert demos.set_index(["rule", "replicate"])["demos"].to_dict() == {
-        ("nevd", 0): 1.5, ("nevd", 1): 2.0, ("patience", 0): 2.0, ("patience", 1): 1.5,
-        ("validation", 0): 2.0, ("validation", 1): 2.0}
+        ("nevd", 0): 1.5,
+        ("nevd", 1): 2.0,
+        ("patience", 0): 2.0,
+        ("patience", 1): 1.5,
+        ("validation", 0): 2.0,
+        ("validation", 1): 2.0,
+    }
 
 
 def test_rule_observations_of_a_run_are_one_per_replicate_and_rule(sweep_run):
@@ -128,4 +159,7 @@ def test_rule_observations_of_a_run_are_one_per_replicate_and_rule(sweep_run):
         for frame in observations(cell.steps, cell.thresholds):
             assert not frame.duplicated(["rule", "replicate"]).any()
             assert frame.groupby("rule").size().to_dict() == {
-                "nevd": replicates, "patience": replicates, "validation": replicates}
+                "nevd": replicates,
+                "patience": replicates,
+                "validation": replicates,
+            }

@@ -18,13 +18,29 @@ from mjsuff.experiment.runner import run_scenario
 from tests.conftest import small_scenario
 
 GRIDWORLD = str(Path(__file__).parent.parent / "scenarios" / "gridworld.toml")
-SETS = ["demos.max_demos=3", "posterior.num_samples=120", "posterior.chains=6",
-        "posterior.burn_in=20", "rules.patience=[1]", "rules.validation_intervals=[2]"]
+SETS = [
+    "demos.max_demos=3",
+    "posterior.num_samples=120",
+    "posterior.chains=6",
+    "posterior.burn_in=20",
+    "rules.patience=[1]",
+    "rules.validation_intervals=[2]",
+]
 
 
 def cli_args(out: Path, replicates: int, *extra: str) -> list[str]:
-    args = ["run", GRIDWORLD, "--out", str(out), "--quiet", "--replicates", str(replicates),
-            "--backend", "serial", *extra]
+    args = [
+        "run",
+        GRIDWORLD,
+        "--out",
+        str(out),
+        "--quiet",
+        "--replicates",
+        str(replicates),
+        "--backend",
+        "serial",
+        *extra,
+    ]
     for s in SETS:
         args += ["--set", s]
     return args
@@ -34,8 +50,11 @@ def test_killed_run_resumes_to_the_uninterrupted_result(tmp_path):
     whole, killed = tmp_path / "whole", tmp_path / "killed"
     assert main(cli_args(whole, 6)) == 0
 
-    proc = subprocess.Popen([sys.executable, "-m", "mjsuff.cli", *cli_args(killed, 6)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mjsuff.cli", *cli_args(killed, 6)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     second = killed / "replicates" / "replicate-00001.parquet"
     deadline = time.monotonic() + 120
     while not second.exists() and time.monotonic() < deadline and proc.poll() is None:

@@ -28,8 +28,9 @@ def test_mcmc_matches_the_exact_grid_posterior(problem):
     exact = grid_posterior(problem, num_points=40_000)
     # The posterior must be informative, or agreeing with it would prove nothing.
     assert np.linalg.norm(exact.mean) > 0.3
-    post = sample_posterior(problem, 3, SamplerConfig(
-        num_samples=12_000, chains=8, burn_in=400, thin=2), np.random.default_rng(0))
+    post = sample_posterior(
+        problem, 3, SamplerConfig(num_samples=12_000, chains=8, burn_in=400, thin=2), np.random.default_rng(0)
+    )
     mean = post.samples.mean(axis=0)
     cov = np.cov(post.samples.T)
     # Tolerances: with ~1500 draws per chain and autocorrelation times of a few steps, the
@@ -42,8 +43,7 @@ def test_mcmc_matches_the_exact_grid_posterior(problem):
 
 
 def test_map_is_the_best_point_visited(problem):
-    post = sample_posterior(problem, 3, SamplerConfig(num_samples=200),
-                            np.random.default_rng(1))
+    post = sample_posterior(problem, 3, SamplerConfig(num_samples=200), np.random.default_rng(1))
     assert post.map_log_likelihood >= post.log_likelihoods.max() - 1e-12
     assert np.isclose(problem(post.map_weights[None])[0], post.map_log_likelihood)
 

@@ -28,18 +28,32 @@ def test_shipped_scenarios_load_and_round_trip(path):
     assert again["posterior"] == scenario.posterior.model_dump(exclude_none=True)
 
 
-@pytest.mark.parametrize(("text", "expected"), [
-    (GOOD + "colour = 3\n", "colour: unknown key"),
-    (GOOD + "[posterior]\nnum_samples = 'many'\n", "posterior.num_samples: input should be a valid integer"),
-    (GOOD + "[rules]\nnevd_thresholds = [0.1, 1.5]\n",
-     "rules.nevd_thresholds.1: input should be less than or equal to 1"),
-    (GOOD + "[rules]\nnevd_thresholds = [0.0]\n", "rules.nevd_thresholds.0: input should be greater than 0"),
-    (GOOD + "[domain.params]\nrows = 1\n", "domain.params.rows: input should be greater than or equal to 2"),
-    (GOOD + "[domain.params]\nwalls = 1\n", "domain.params.walls: unknown key"),
-    ('name = "x"\n[domain]\nname = "chess"\n', "domain.name: expected one of"),
-    ("name = \n", "not valid TOML"),
-    ('[domain]\nname = "gridworld"\n', "name: missing required key"),
-])
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (GOOD + "colour = 3\n", "colour: unknown key"),
+        (
+            GOOD + "[posterior]\nnum_samples = 'many'\n",
+            "posterior.num_samples: input should be a valid integer",
+        ),
+        (
+            GOOD + "[rules]\nnevd_thresholds = [0.1, 1.5]\n",
+            "rules.nevd_thresholds.1: input should be less than or equal to 1",
+        ),
+        (
+            GOOD + "[rules]\nnevd_thresholds = [0.0]\n",
+            "rules.nevd_thresholds.0: input should be greater than 0",
+        ),
+        (
+            GOOD + "[domain.params]\nrows = 1\n",
+            "domain.params.rows: input should be greater than or equal to 2",
+        ),
+        (GOOD + "[domain.params]\nwalls = 1\n", "domain.params.walls: unknown key"),
+        ('name = "x"\n[domain]\nname = "chess"\n', "domain.name: expected one of"),
+        ("name = \n", "not valid TOML"),
+        ('[domain]\nname = "gridworld"\n', "name: missing required key"),
+    ],
+)
 def test_bad_scenarios_name_file_key_and_expectation(tmp_path, text, expected):
     path = tmp_path / "bad.toml"
     path.write_text(text)
@@ -57,8 +71,7 @@ def test_missing_file(tmp_path):
 def test_overrides_are_parsed_as_toml_values(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(GOOD)
-    s = load_scenario(path, ["sufficiency.alpha=0.9", "rules.patience=[2, 3]",
-                             "demos.selection=active"])
+    s = load_scenario(path, ["sufficiency.alpha=0.9", "rules.patience=[2, 3]", "demos.selection=active"])
     assert s.sufficiency.alpha == 0.9 and s.rules.patience == [2, 3]
     assert s.demos.selection == "active"
     with pytest.raises(ScenarioError, match=r"sufficiency\.alpha: input should be less than 1"):
@@ -67,34 +80,65 @@ def test_overrides_are_parsed_as_toml_values(tmp_path):
         load_scenario(path, ["alpha"])
 
 
-@pytest.mark.parametrize(("sets", "expected", "attributed"), [
-    (["domain.name='driving'", "domain.params.motorists=100"],
-     "domain.params: motorists must be at most 15", False),
-    (["demos.beta=inf"], "demos.beta: input should be a finite number", True),
-    (["posterior.step_size=nan"], "posterior.step_size: input should be a finite number", True),
-    (["rules.nevd_thresholds=['0.1']"], "rules.nevd_thresholds.0: input should be a valid number",
-     True),
-    (["domain.params.gamma='0.9'"], "domain.params.gamma: input should be a valid number", True),
-    (["rules.nevd_thresholds=[]", "rules.piob_thresholds=[]", "rules.patience=[]",
-      "rules.validation_intervals=[]"], "rules: at least one rule is needed", False),
-    (["rules.nevd_thresholds=[]"], "rules.nevd_thresholds: the baselines are scored", False),
-    (["posterior.num_samples=20"], "posterior.num_samples: at least 70 samples", False),
-    (["posterior.num_samples=40", "sufficiency.quantile_method=\"binomial\""],
-     "posterior.num_samples: at least 59 samples", False),
-    (["posterior.num_samples=100", "posterior.min_ess=200"], "posterior.min_ess: the kept draws' "
-     "effective size cannot exceed num_samples (100)", False),
-    (["posterior.num_samples=60", "posterior.chains=80"], "posterior.num_samples: must be a multiple "
-     "of chains (80)", False),
-    (["posterior.rhat_target=1.0"], "posterior.rhat_target: input should be greater than 1", False),
-    (["posterior.min_ess=30"], "posterior.min_ess: the 0.95-confidence bound on the 0.95-VaR from "
-     "500 samples needs an effective size of at least 54", False),
-    (["posterior.max_steps=50"], "posterior.max_steps: at least burn_in + num_samples / chains × thin",
-     False),
-    (["posterior.max_steps=10000000"], "posterior.max_steps: input should be less than or equal to",
-     False),
-    (["domain.params.rows=40"], "domain.params.rows: input should be less than or equal to 12",
-     True),
-])
+@pytest.mark.parametrize(
+    ("sets", "expected", "attributed"),
+    [
+        (
+            ["domain.name='driving'", "domain.params.motorists=100"],
+            "domain.params: motorists must be at most 15",
+            False,
+        ),
+        (["demos.beta=inf"], "demos.beta: input should be a finite number", True),
+        (["posterior.step_size=nan"], "posterior.step_size: input should be a finite number", True),
+        (["rules.nevd_thresholds=['0.1']"], "rules.nevd_thresholds.0: input should be a valid number", True),
+        (["domain.params.gamma='0.9'"], "domain.params.gamma: input should be a valid number", True),
+        (
+            [
+                "rules.nevd_thresholds=[]",
+                "rules.piob_thresholds=[]",
+                "rules.patience=[]",
+                "rules.validation_intervals=[]",
+            ],
+            "rules: at least one rule is needed",
+            False,
+        ),
+        (["rules.nevd_thresholds=[]"], "rules.nevd_thresholds: the baselines are scored", False),
+        (["posterior.num_samples=20"], "posterior.num_samples: at least 70 samples", False),
+        (
+            ["posterior.num_samples=40", 'sufficiency.quantile_method="binomial"'],
+            "posterior.num_samples: at least 59 samples",
+            False,
+        ),
+        (
+            ["posterior.num_samples=100", "posterior.min_ess=200"],
+            "posterior.min_ess: the kept draws' effective size cannot exceed num_samples (100)",
+            False,
+        ),
+        (
+            ["posterior.num_samples=60", "posterior.chains=80"],
+            "posterior.num_samples: must be a multiple of chains (80)",
+            False,
+        ),
+        (["posterior.rhat_target=1.0"], "posterior.rhat_target: input should be greater than 1", False),
+        (
+            ["posterior.min_ess=30"],
+            "posterior.min_ess: the 0.95-confidence bound on the 0.95-VaR from "
+            "500 samples needs an effective size of at least 54",
+            False,
+        ),
+        (
+            ["posterior.max_steps=50"],
+            "posterior.max_steps: at least burn_in + num_samples / chains × thin",
+            False,
+        ),
+        (
+            ["posterior.max_steps=10000000"],
+            "posterior.max_steps: input should be less than or equal to",
+            False,
+        ),
+        (["domain.params.rows=40"], "domain.params.rows: input should be less than or equal to 12", True),
+    ],
+)
 def test_bad_overrides_are_clear(tmp_path, sets, expected, attributed):
     path = tmp_path / "s.toml"
     path.write_text(GOOD)
@@ -135,5 +179,6 @@ def test_bare_names_resolve_to_shipped_scenarios_unless_a_file_has_that_name(tmp
     with pytest.raises(ScenarioError) as unknown:
         load_scenario("nonesuch")
     names = ", ".join(p.stem for p in SCENARIOS)
-    assert str(unknown.value) == (f"nonesuch: no such scenario file, nor a shipped scenario "
-                                  f"(shipped: {names})")
+    assert str(unknown.value) == (
+        f"nonesuch: no such scenario file, nor a shipped scenario (shipped: {names})"
+    )

@@ -16,8 +16,12 @@ from mjsuff.posterior import SamplerConfig, grid_posterior, sample_posterior
 from mjsuff.sphere import random_unit_vectors
 
 SCENES = sorted(n for n, spec in REGISTRY.items() if spec.kind == "scene")
-SMALL_PLANNING = {"planner": {"population": 32, "elites": 4, "iterations": 8},
-                  "refine_groups": 4, "refine_rounds": 1, "seed_directions": 2}
+SMALL_PLANNING = {
+    "planner": {"population": 32, "elites": 4, "iterations": 8},
+    "refine_groups": 4,
+    "refine_rounds": 1,
+    "seed_directions": 2,
+}
 BETA = 10.0
 
 
@@ -43,7 +47,8 @@ def test_candidate_set_holds_the_demo_and_the_demo_joins_the_library(case):
         assert candidates is domain.candidate_features(demo)  # fixed once seen
         w = domain.true_weights
         assert domain.library.best_value(int(domain.pool[demo.start]), w[None])[0] >= (
-            w @ demo.data["features"] - 1e-12)
+            w @ demo.data["features"] - 1e-12
+        )
 
 
 def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(case):
@@ -52,8 +57,9 @@ def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(c
     likelihood's assumption holds by construction (up to its random perturbations)."""
     domain, _ = case
     name = "lander" if domain.scene.feature_names[0] == "landing_error" else "lava_reacher"
-    scenario = scenario_from_dict({"name": "t", "domain": {"name": name},
-                                   "demos": {"candidates": "family"}}, "test")
+    scenario = scenario_from_dict(
+        {"name": "t", "domain": {"name": name}, "demos": {"candidates": "family"}}, "test"
+    )
     fresh = copy.deepcopy(domain)
     fresh.configure(scenario)
     assert fresh.candidates == "family"
@@ -62,7 +68,7 @@ def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(c
         candidates = fresh.candidate_features(demo)
         family = fresh._family_features(int(fresh.pool[demo.start]))
         assert len(family) >= 5 and np.isfinite(candidates).all()
-        np.testing.assert_array_equal(candidates[1:1 + len(family)], family)
+        np.testing.assert_array_equal(candidates[1 : 1 + len(family)], family)
         assert (family @ w <= candidates[0] @ w + 1e-12).all()
 
 
@@ -207,8 +213,9 @@ def test_plan_samples_plans_from_the_bound_down(case, monkeypatch):
     robot = domain.start_feature_expectations(domain.plan(domain.sample_prior(rng, 1)[0]))
     weights = domain.sample_prior(rng, 40)
     probe = copy.deepcopy(domain)
-    probe.planning = probe.planning.model_copy(update={
-        "polish_rounds": 0, "refine_rounds": 0, "plan_samples": 3})
+    probe.planning = probe.planning.model_copy(
+        update={"polish_rounds": 0, "refine_rounds": 0, "plan_samples": 3}
+    )
     planned = []
     monkeypatch.setattr(probe, "_plan_samples", lambda w: planned.append(w.copy()))
     order = np.argsort(-probe._nevd(weights, robot), kind="stable")
@@ -261,8 +268,7 @@ def test_ground_truth_leaves_the_learner_untouched_and_includes_the_expert():
     # V* - V_rand.
     rng = np.random.default_rng(15)
     w = domain.true_weights
-    shown = [domain.expert.demonstrate(domain.scene.starts[s], w, rng).features @ w
-             for s in range(3)]
+    shown = [domain.expert.demonstrate(domain.scene.starts[s], w, rng).features @ w for s in range(3)]
     scale = truth - domain.random_start_feature_expectations() @ domain.true_weights
     assert np.all(truth >= np.array(shown) - 0.005 * scale)
 
@@ -286,10 +292,15 @@ def test_ground_truth_is_not_beaten_by_the_learners_plans_near_w_star():
 def test_configure_takes_the_scenarios_tolerances_and_expert(case):
     domain, _ = case
     name = "lander" if domain.scene.feature_names[0] == "landing_error" else "lava_reacher"
-    scenario = scenario_from_dict({
-        "name": "t", "domain": {"name": name},
-        "rules": {"unchanged_tolerance": 0.2, "match_tolerance": 0.3},
-        "expert": {"rationality": 5.0}}, "test")
+    scenario = scenario_from_dict(
+        {
+            "name": "t",
+            "domain": {"name": name},
+            "rules": {"unchanged_tolerance": 0.2, "match_tolerance": 0.3},
+            "expert": {"rationality": 5.0},
+        },
+        "test",
+    )
     fresh = small_domain(name, seed=11)
     fresh.configure(scenario)
     assert (fresh.unchanged_tolerance, fresh.match_tolerance) == (0.2, 0.3)
@@ -299,8 +310,9 @@ def test_configure_takes_the_scenarios_tolerances_and_expert(case):
 def test_bad_demo_features_are_a_clear_error(case):
     domain, _ = case
     with pytest.raises(ValueError, match="features must be"):
-        domain.log_likelihood(domain.true_weights[None],
-                              [Demo(start=0, data={"features": np.array([np.nan] * 2)})], BETA)
+        domain.log_likelihood(
+            domain.true_weights[None], [Demo(start=0, data={"features": np.array([np.nan] * 2)})], BETA
+        )
 
 
 def test_mcmc_matches_the_exact_posterior_on_the_reacher():
@@ -315,8 +327,9 @@ def test_mcmc_matches_the_exact_posterior_on_the_reacher():
 
     exact = grid_posterior(problem, num_points=400_000, k=4, rng=np.random.default_rng(14))
     assert np.linalg.norm(exact.mean) > 0.3  # informative, or agreement would prove nothing
-    post = sample_posterior(problem, 4, SamplerConfig(
-        num_samples=12_000, chains=8, burn_in=400, thin=2), np.random.default_rng(0))
+    post = sample_posterior(
+        problem, 4, SamplerConfig(num_samples=12_000, chains=8, burn_in=400, thin=2), np.random.default_rng(0)
+    )
     # The same tolerances as the tabular check (tests/test_sampler.py): about four Monte Carlo
     # standard errors for ~1500 draws per chain.
     np.testing.assert_allclose(post.samples.mean(axis=0), exact.mean, atol=0.04)

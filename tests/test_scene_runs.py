@@ -17,14 +17,29 @@ from mjsuff.recording import Recording
 from mjsuff.scenes.domain import SceneDomain
 
 SCENARIOS = Path(__file__).parent.parent / "scenarios"
-TINY = ["--replicates", "1", "--quiet",
-        "--set", "domain.params.eval_starts=3", "--set", "demos.max_demos=3",
-        "--set", "posterior.num_samples=100",
-        "--set", "domain.params.planning.planner.iterations=4",
-        "--set", "domain.params.planning.refine_rounds=0",
-        "--set", "domain.params.planning.seed_directions=1",
-        "--set", "domain.params.planning.truth_scale=1.0",
-        "--set", "rules.validation_intervals=[2]", "--set", "rules.patience=[1]"]
+TINY = [
+    "--replicates",
+    "1",
+    "--quiet",
+    "--set",
+    "domain.params.eval_starts=3",
+    "--set",
+    "demos.max_demos=3",
+    "--set",
+    "posterior.num_samples=100",
+    "--set",
+    "domain.params.planning.planner.iterations=4",
+    "--set",
+    "domain.params.planning.refine_rounds=0",
+    "--set",
+    "domain.params.planning.seed_directions=1",
+    "--set",
+    "domain.params.planning.truth_scale=1.0",
+    "--set",
+    "rules.validation_intervals=[2]",
+    "--set",
+    "rules.patience=[1]",
+]
 
 
 def run(name, out, *extra):
@@ -65,8 +80,12 @@ def test_saved_demo_set_reproduces_the_live_run(tmp_path, monkeypatch):
     name = "lava_reacher"
     demos = tmp_path / "d.npz"
     sets = ["--set", "domain.params.eval_starts=3"]
-    assert main(["demos", str(SCENARIOS / f"{name}.toml"), "--count", "3", "--out", str(demos),
-                 "--quiet", *sets]) == 0
+    assert (
+        main(
+            ["demos", str(SCENARIOS / f"{name}.toml"), "--count", "3", "--out", str(demos), "--quiet", *sets]
+        )
+        == 0
+    )
     code, live = run(name, tmp_path / "live")
     assert code == 0
     # The served run must not ask the live expert at all.
@@ -82,8 +101,24 @@ def test_saved_demo_set_reproduces_the_live_run(tmp_path, monkeypatch):
 def test_demo_set_of_another_instance_or_replicate_is_refused(tmp_path, capsys):
     name = "lava_reacher"
     demos = tmp_path / "d.npz"
-    assert main(["demos", str(SCENARIOS / f"{name}.toml"), "--count", "1", "--out", str(demos),
-                 "--quiet", "--set", "domain.params.eval_starts=3", "--seed", "5"]) == 0
+    assert (
+        main(
+            [
+                "demos",
+                str(SCENARIOS / f"{name}.toml"),
+                "--count",
+                "1",
+                "--out",
+                str(demos),
+                "--quiet",
+                "--set",
+                "domain.params.eval_starts=3",
+                "--seed",
+                "5",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     code, _ = run(name, tmp_path / "o", "--demos", str(demos))
     err = capsys.readouterr().err.strip()
@@ -91,8 +126,24 @@ def test_demo_set_of_another_instance_or_replicate_is_refused(tmp_path, capsys):
     assert "d.npz: field 'meta.seed': expected 0, got 5" in err
     assert not (tmp_path / "o").exists()
     other = tmp_path / "r3.npz"
-    assert main(["demos", str(SCENARIOS / f"{name}.toml"), "--count", "1", "--out", str(other),
-                 "--quiet", "--set", "domain.params.eval_starts=3", "--replicate", "3"]) == 0
+    assert (
+        main(
+            [
+                "demos",
+                str(SCENARIOS / f"{name}.toml"),
+                "--count",
+                "1",
+                "--out",
+                str(other),
+                "--quiet",
+                "--set",
+                "domain.params.eval_starts=3",
+                "--replicate",
+                "3",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     code, _ = run(name, tmp_path / "o", "--demos", str(other))
     err = capsys.readouterr().err
@@ -101,8 +152,22 @@ def test_demo_set_of_another_instance_or_replicate_is_refused(tmp_path, capsys):
 
 def test_demo_set_that_is_short_or_made_otherwise_is_refused_before_work(tmp_path, capsys):
     demos = tmp_path / "short.npz"
-    assert main(["demos", str(SCENARIOS / "lava_reacher.toml"), "--count", "1", "--out",
-                 str(demos), "--quiet", "--set", "domain.params.eval_starts=3"]) == 0
+    assert (
+        main(
+            [
+                "demos",
+                str(SCENARIOS / "lava_reacher.toml"),
+                "--count",
+                "1",
+                "--out",
+                str(demos),
+                "--quiet",
+                "--set",
+                "domain.params.eval_starts=3",
+            ]
+        )
+        == 0
+    )
     cases = {
         (): "the run asks for 3 demos in passive order but the file has none left from start",
         ("--set", "domain.params.horizon=1.0"): "field 'meta.scene_params'",

@@ -17,12 +17,12 @@ from mjsuff.scenes.lava_reacher import (
 from mjsuff.scenes.planner import PlannerConfig, SamplingPlanner
 from mjsuff.scenes.scene import MODELS, load_model, model_path
 
-SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams),
-          "lander": (Lander, LanderParams)}
+SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams), "lander": (Lander, LanderParams)}
 #: Documented feature ranges (see the scene modules' docstrings).
-RANGES = {"lava_reacher": [(0, 2 * REACH / DISTANCE_SCALE), (0, 1 / HAZARD_SCALE),
-                           (0, 1 / HAZARD_SCALE), (0, 40)],
-          "lander": [(0, 6), (0, 3), (0, 1), (0, 2), (0, 1 / ZONE_SCALE), (0, 1 / ZONE_SCALE)]}
+RANGES = {
+    "lava_reacher": [(0, 2 * REACH / DISTANCE_SCALE), (0, 1 / HAZARD_SCALE), (0, 1 / HAZARD_SCALE), (0, 40)],
+    "lander": [(0, 6), (0, 3), (0, 1), (0, 2), (0, 1 / ZONE_SCALE), (0, 1 / ZONE_SCALE)],
+}
 
 
 def make(name, seed=0, **params):
@@ -78,8 +78,7 @@ def test_random_controls_give_finite_features_in_range(name):
 def test_diverged_rollouts_are_flagged_and_not_scored(name):
     scene = make(name)
     knots = scene.spline.uniform(np.random.default_rng(4), 3)
-    controls = scene.spline.controls(knots, scene.anchor(scene.starts[:1]) if scene.spline.anchored
-                                     else None)
+    controls = scene.spline.controls(knots, scene.anchor(scene.starts[:1]) if scene.spline.anchored else None)
     controls[1, 5:] = np.nan
     before = scene.simulator.diverged
     rollouts = scene.simulator.run(scene.start_states(scene.starts[:1]), controls)
@@ -139,7 +138,8 @@ def plan_features(scene, w, seed=0):
     w = np.asarray(w, dtype=float) / np.linalg.norm(w)
     starts = np.arange(len(scene.starts))
     plans = SamplingPlanner(scene, PlannerConfig(population=48, iterations=16)).plan(
-        starts, np.tile(w, (len(starts), 1)), np.random.default_rng(seed))
+        starts, np.tile(w, (len(starts), 1)), np.random.default_rng(seed)
+    )
     return plans.features
 
 
@@ -147,8 +147,7 @@ def test_reacher_detours_around_lava_only_when_it_matters():
     scene = make("lava_reacher", 0)
     careful = plan_features(scene, [-0.3, -0.95, -0.95, -0.05])
     careless = plan_features(scene, [-0.95, -0.01, -0.01, -0.05])
-    exposure = {k: f[:, 1:3].sum(axis=1).mean() for k, f in (("careful", careful),
-                                                             ("careless", careless))}
+    exposure = {k: f[:, 1:3].sum(axis=1).mean() for k, f in (("careful", careful), ("careless", careless))}
     assert exposure["careful"] < 0.25 * exposure["careless"]  # far less lava and water exposure
     assert careful[:, 0].mean() > careless[:, 0].mean()  # paid for with a longer way to the goal
 
@@ -189,8 +188,7 @@ def test_lander_flies_over_its_zone_only_when_it_matters():
     scene = make("lander", 0)
     careful = plan_features(scene, [-0.4, -0.3, -0.3, -0.1, -0.8, -0.8])
     careless = plan_features(scene, [-0.4, -0.3, -0.3, -0.1, -0.01, -0.01])
-    exposure = {k: f[:, 4:].sum(axis=1).mean() for k, f in (("careful", careful),
-                                                            ("careless", careless))}
+    exposure = {k: f[:, 4:].sum(axis=1).mean() for k, f in (("careful", careful), ("careless", careless))}
     assert exposure["careful"] < 0.25 * exposure["careless"]  # far less exposure
     # Paid for with a harder touchdown or more fuel (over the zone, the descent comes later).
     assert careful[:, 1:3].sum(axis=1).mean() > careless[:, 1:3].sum(axis=1).mean()

@@ -26,8 +26,7 @@ class IntPolicyDomain:
 
 
 def evidence(demos, map_policy=0, nevd=math.inf, piob=-math.inf, excluding=None):
-    return Evidence(IntPolicyDomain(), demos, map_policy, nevd, piob,
-                    excluding or (lambda held: map_policy))
+    return Evidence(IntPolicyDomain(), demos, map_policy, nevd, piob, excluding or (lambda held: map_policy))
 
 
 def test_nevd_rule_stops_at_or_below_its_threshold():

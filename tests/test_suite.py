@@ -18,8 +18,12 @@ from mjsuff.posterior import SamplerConfig, sample_posterior
 from .test_demo_set import OVERRIDES, ROOT
 
 SCENES = sorted(suite.SCENES)
-SMALL_PLANNING = {"planner": {"population": 32, "elites": 4, "iterations": 8},
-                  "refine_groups": 4, "refine_rounds": 1, "seed_directions": 2}
+SMALL_PLANNING = {
+    "planner": {"population": 32, "elites": 4, "iterations": 8},
+    "refine_groups": 4,
+    "refine_rounds": 1,
+    "seed_directions": 2,
+}
 
 
 def test_installed_mujoco_runs_dm_control():
@@ -37,8 +41,11 @@ def test_installed_mujoco_runs_dm_control():
     model.worldbody.add("body").add("geom", type="sphere", size=[0.1])
     physics = mjcf.Physics.from_mjcf_model(model)
     physics.step()
-    pins = dict(r.replace(" ", "").split("==") for r in metadata.requires("mjsuff")
-                if r.replace(" ", "").split("==")[0] in ("mujoco", "dm-control"))
+    pins = dict(
+        r.replace(" ", "").split("==")
+        for r in metadata.requires("mjsuff")
+        if r.replace(" ", "").split("==")[0] in ("mujoco", "dm-control")
+    )
     assert pins == {"mujoco": mujoco.__version__, "dm-control": metadata.version("dm-control")}
 
 
@@ -83,8 +90,7 @@ def test_step_features_and_rewards_equal_the_rollout_featurizers(name):
     start = scene.sample_starts(np.random.default_rng(3), 1)[0]
     env = suite.load_instance(scene, instance.true_weights, starts=start[None])
     knots = scene.spline.uniform(np.random.default_rng(3), 1)
-    controls = scene.spline.controls(knots, scene.anchor(start[None]) if scene.spline.anchored
-                                     else None)[0]
+    controls = scene.spline.controls(knots, scene.anchor(start[None]) if scene.spline.anchored else None)[0]
     feats, rewards, last = _play(env, controls)
     rollouts, features = scene.simulate(start[None], knots)
     # One mj_step per control step, as in mujoco.rollout: the same states, the same features.
@@ -117,18 +123,20 @@ def test_a_saved_demo_set_replays_to_its_features(tmp_path):
     for i in range(len(demo_set)):
         feats, _, _ = _play(env, demo_set.arrays["controls"][i])
         np.testing.assert_array_equal(env.physics.data.qpos, demo_set.arrays["qpos"][i, -1])
-        np.testing.assert_allclose(feats.sum(axis=0), demo_set.arrays["features"][i],
-                                   rtol=0, atol=1e-12)
+        np.testing.assert_allclose(feats.sum(axis=0), demo_set.arrays["features"][i], rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("name", SCENES)
 def test_pi_map_runs_in_the_environment(name):
-    domain = get_domain(name).make({"eval_starts": 3, "planning": SMALL_PLANNING},
-                                   np.random.default_rng(3))
+    domain = get_domain(name).make({"eval_starts": 3, "planning": SMALL_PLANNING}, np.random.default_rng(3))
     rng = np.random.default_rng(4)
     demos = [domain.demonstrate(0, rng)]
-    post = sample_posterior(lambda w: domain.log_likelihood(w, demos, 10.0), domain.num_features,
-                            SamplerConfig(num_samples=100), rng)
+    post = sample_posterior(
+        lambda w: domain.log_likelihood(w, demos, 10.0),
+        domain.num_features,
+        SamplerConfig(num_samples=100),
+        rng,
+    )
     policy = domain.plan(post.map_weights)  # π_MAP: knots from every evaluation start
     scene = domain.scene
     env = suite.load_instance(scene, domain.true_weights, starts=scene.starts)

@@ -19,16 +19,21 @@ def test_each_cell_equals_its_single_run(tmp_path):
     assert len(result.cells) == 4 and result.completed == 8
     cells = json.loads((tmp_path / "s" / "sweep.json").read_text())["cells"]
     assert [c["labels"] for c in cells] == [
-        {"demos.noise_fraction": n, "demos.beta": b} for n in (0.0, 0.3) for b in (5.0, 20.0)]
+        {"demos.noise_fraction": n, "demos.beta": b} for n in (0.0, 0.3) for b in (5.0, 20.0)
+    ]
     combined = pd.read_parquet(tmp_path / "s" / "steps.parquet")
     assert combined.groupby("cell")["replicate"].nunique().tolist() == [2, 2, 2, 2]
     # Cell 3 (noise 0.3, beta 20) is exactly the run with those settings.
-    single = run_scenario(small_scenario(**{"demos.noise_fraction": 0.3, "demos.beta": 20.0}),
-                          tmp_path / "one", record=False)
+    single = run_scenario(
+        small_scenario(**{"demos.noise_fraction": 0.3, "demos.beta": 20.0}), tmp_path / "one", record=False
+    )
     cell = pd.read_parquet(tmp_path / "s" / cells[3]["directory"] / "steps.parquet")
     pd.testing.assert_frame_equal(cell, pd.read_parquet(single.directory / "steps.parquet"))
-    part = combined[combined["cell"] == 3].drop(columns=["cell", "demos.noise_fraction",
-                                                         "demos.beta"]).reset_index(drop=True)
+    part = (
+        combined[combined["cell"] == 3]
+        .drop(columns=["cell", "demos.noise_fraction", "demos.beta"])
+        .reset_index(drop=True)
+    )
     pd.testing.assert_frame_equal(part, cell)
     # Noise happened: poor demos in the noisy cells only.
     poor = combined.groupby("demos.noise_fraction")["poor_demo"].any()
@@ -60,23 +65,25 @@ def test_interrupted_sweep_keeps_and_summarizes_what_finished(tmp_path, monkeypa
 
 
 def test_list_values_can_be_swept(tmp_path):
-    result = run_scenario(small_scenario(sweep={"rules.patience": [[1], [1, 2]]}), tmp_path / "s",
-                          record=False)
-    assert [c.result.directory.name for c in result.cells] == ["cell-00_patience=1",
-                                                               "cell-01_patience=1+2"]
+    result = run_scenario(
+        small_scenario(sweep={"rules.patience": [[1], [1, 2]]}), tmp_path / "s", record=False
+    )
+    assert [c.result.directory.name for c in result.cells] == ["cell-00_patience=1", "cell-01_patience=1+2"]
     combined = pd.read_parquet(tmp_path / "s" / "steps.parquet")
     assert set(combined["rules.patience"]) == {"[1]", "[1, 2]"}
     patience = combined[combined["rule"] == "patience"]
     assert set(patience.loc[patience["cell"] == 1, "param"]) == {1.0, 2.0}
 
 
-@pytest.mark.parametrize(("line", "message"), [
-    ('"demos.noise_fraction" = [0.0, 1.5]', "sweep cell demos.noise_fraction=1.5: "
-                                            "demos.noise_fraction"),
-    ('"demos.typo" = [1]', "demos.typo: unknown key"),
-    ('"seed" = [1, 2]', "sweep.seed"),
-    ('"demos.beta" = []', "sweep.demos.beta"),
-])
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ('"demos.noise_fraction" = [0.0, 1.5]', "sweep cell demos.noise_fraction=1.5: demos.noise_fraction"),
+        ('"demos.typo" = [1]', "demos.typo: unknown key"),
+        ('"seed" = [1, 2]', "sweep.seed"),
+        ('"demos.beta" = []', "sweep.demos.beta"),
+    ],
+)
 def test_bad_grids_name_the_file_and_key(tmp_path, line, message):
     path = tmp_path / "s.toml"
     path.write_text(f'name = "s"\n[domain]\nname = "gridworld"\n[sweep]\n{line}\n')

@@ -56,5 +56,4 @@ def test_fresh_cache_and_shared_cache_agree():
     domain = instance("driving", 6)
     weights = random_unit_vectors(np.random.default_rng(7), 64, domain.num_features)
     fresh = OptimalPolicyCache(domain.mdp)
-    np.testing.assert_allclose(fresh.optimal_values(weights),
-                               domain.cache.optimal_values(weights), atol=1e-9)
+    np.testing.assert_allclose(fresh.optimal_values(weights), domain.cache.optimal_values(weights), atol=1e-9)

@@ -10,7 +10,6 @@ def abbeel_ng_demos(epsilon: float, gamma: float = 0.95, k: int = 4, delta: floa
     return math.ceil((2 * k * math.log(2 * k / delta)) / ((epsilon * (1 - gamma)) ** 2) - 1e-9)
 
 
-def syed_schapire_demos(epsilon: float, gamma: float = 0.95, k: int = 4,
-                        delta: float = 0.05) -> int:
+def syed_schapire_demos(epsilon: float, gamma: float = 0.95, k: int = 4, delta: float = 0.05) -> int:
     """Smallest ``m`` with ``(3/(1−γ))·√(2/m·ln(2k/δ)) ≤ ε`` (Syed & Schapire, 2007)."""
     return math.ceil((2 * 9 * math.log(2 * k / delta)) / ((epsilon * (1 - gamma)) ** 2) - 1e-9)

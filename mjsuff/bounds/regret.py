@@ -25,7 +25,6 @@ def percent_improvement(v_robot: np.ndarray, v_base: np.ndarray) -> np.ndarray:
     return np.where(np.isnan(out), 0.0, out)
 
 
-def policy_values(weights: np.ndarray, start_mu: np.ndarray,
-                  start_weights: np.ndarray) -> np.ndarray:
+def policy_values(weights: np.ndarray, start_mu: np.ndarray, start_weights: np.ndarray) -> np.ndarray:
     """``V^π_w`` for weights ``(N, k)`` from per-start feature expectations ``(S, k)`` -> ``(N,)``."""
     return weights @ (start_weights @ start_mu)

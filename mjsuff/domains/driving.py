@@ -82,8 +82,7 @@ def make_driving(params: DrivingParams, rng: np.random.Generator) -> TabularDoma
     n = params.rows * NUM_COLUMNS
     lanes = [s for s in range(n) if s % NUM_COLUMNS in LANE_COLUMNS]
     if params.motorists > len(lanes):
-        raise ValueError(f"motorists must be at most {len(lanes)} (lane cells), got "
-                         f"{params.motorists}")
+        raise ValueError(f"motorists must be at most {len(lanes)} (lane cells), got {params.motorists}")
     cars = rng.choice(lanes, size=params.motorists, replace=False)
     kind = np.empty(n, dtype=np.int64)
     for s in range(n):

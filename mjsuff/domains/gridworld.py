@@ -88,8 +88,7 @@ def make_gridworld(params: GridworldParams, rng: np.random.Generator) -> Tabular
     features = np.eye(k)[terrain]
     terminal = np.zeros(n, dtype=bool)
     terminal[goal] = True
-    mdp = TabularMDP(grid_transitions(params.rows, params.cols, terminal), features, params.gamma,
-                     terminal)
+    mdp = TabularMDP(grid_transitions(params.rows, params.cols, terminal), features, params.gamma, terminal)
     true_weights = random_unit_vectors(rng, 1, k)[0]
     if params.world == "goal":
         true_weights = np.sort(true_weights)

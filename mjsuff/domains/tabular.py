@@ -309,8 +309,9 @@ class TabularDomain(Domain):
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
         return self.mdp.successor_features(policy)
 
-    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None,
-                             bound_index: BoundIndex | None = None) -> np.ndarray:
+    def optimal_start_values(
+        self, weights: np.ndarray, robot: np.ndarray | None = None, bound_index: BoundIndex | None = None
+    ) -> np.ndarray:
         return self.cache.optimal_values(weights)
 
     def pool_regrets(self, weights: np.ndarray, policy: np.ndarray) -> np.ndarray:

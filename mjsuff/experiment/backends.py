@@ -90,8 +90,7 @@ def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> Replica
     """Run one task in this process (BLAS limited to one thread: the matrices are small)."""
     if not task.record:
         with threadpool_limits(limits=1):
-            return ReplicateResult(run_replicate(task.scenario, task.replicate, on_step,
-                                                 task.demo_source))
+            return ReplicateResult(run_replicate(task.scenario, task.replicate, on_step, task.demo_source))
     from mjsuff.recording.recorder import RunRecorder  # Rerun only when recording
 
     with tempfile.TemporaryDirectory(prefix="mjsuff-rec-") as tmp:
@@ -99,8 +98,13 @@ def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> Replica
         recorder = RunRecorder(path, task.scenario, default_layout=task.replicate == 0)
         try:
             with threadpool_limits(limits=1):
-                rows = run_replicate(task.scenario, task.replicate, on_step, task.demo_source,
-                                     recorder.replicate(task.replicate))
+                rows = run_replicate(
+                    task.scenario,
+                    task.replicate,
+                    on_step,
+                    task.demo_source,
+                    recorder.replicate(task.replicate),
+                )
         finally:
             recorder.close()
         return ReplicateResult(rows, path.read_bytes())
@@ -112,8 +116,9 @@ class Backend(abc.ABC):
     name: str = "backend"
 
     @abc.abstractmethod
-    def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
+    def run(
+        self, tasks: list[ReplicateTask], on_step: TaskProgress | None = None
+    ) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         """Run ``tasks``; on an exception or when the consumer stops, unstarted tasks are cancelled."""
 
     def describe(self) -> str:
@@ -130,8 +135,9 @@ class SerialBackend(Backend):
 
     name = "serial"
 
-    def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
+    def run(
+        self, tasks: list[ReplicateTask], on_step: TaskProgress | None = None
+    ) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         for task in tasks:
             callback = None if on_step is None else (lambda s, m, t=task: on_step(t, s, m))
             yield task, execute(task, callback)
@@ -206,8 +212,9 @@ class LocalBackend(Backend):
     def describe(self) -> str:
         return f"local, {self.workers} worker process(es)"
 
-    def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
+    def run(
+        self, tasks: list[ReplicateTask], on_step: TaskProgress | None = None
+    ) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         if not tasks:
             return
         workers = min(self.workers, len(tasks))
@@ -232,14 +239,16 @@ class LocalBackend(Backend):
                 on_step(by_key[key], step, max_demos)
 
         drainer = threading.Thread(target=drain, daemon=True) if events is not None else None
-        pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_init,
-                                   initargs=(self.sim_threads,))
+        pool = ProcessPoolExecutor(
+            workers, mp_context=context, initializer=_worker_init, initargs=(self.sim_threads,)
+        )
         try:
             if drainer is not None:
                 drainer.start()
             with _sigint_ignored():  # worker processes start on the first submissions
                 pending: dict[Future, ReplicateTask] = {
-                    pool.submit(_execute_reporting, t, events): t for t in tasks}
+                    pool.submit(_execute_reporting, t, events): t for t in tasks
+                }
             while pending:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for future in sorted(done, key=lambda f: pending[f].key):
@@ -271,8 +280,9 @@ class RayBackend(Backend):
 
     name = "ray"
 
-    def __init__(self, address: str | None = None, num_cpus: int | None = None,
-                 cpus_per_task: int = 1) -> None:
+    def __init__(
+        self, address: str | None = None, num_cpus: int | None = None, cpus_per_task: int = 1
+    ) -> None:
         try:
             import ray
         except ImportError:
@@ -300,8 +310,11 @@ class RayBackend(Backend):
         """
         if self.ray.is_initialized():
             return
-        options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
-                                   "configure_logging": False}
+        options: dict[str, Any] = {
+            "include_dashboard": False,
+            "log_to_driver": False,
+            "configure_logging": False,
+        }
         if not self.address:
             self.ray.init(num_cpus=self.num_cpus or os.cpu_count() or 1, **options)
             return
@@ -315,13 +328,18 @@ class RayBackend(Backend):
         except _auth_error(self.ray) as exc:
             raise ClusterConnectionError(_auth_refused(self.address, exc)) from None
         except ConnectionError as exc:
-            hint = ("" if _auth_mode() == "token" else "; if the cluster uses token "
-                    "authentication, set RAY_AUTH_MODE=token here")
-            raise ClusterConnectionError(f"--address {self.address}: cannot connect to the Ray "
-                                         f"cluster ({exc}){hint}") from None
+            hint = (
+                ""
+                if _auth_mode() == "token"
+                else "; if the cluster uses token authentication, set RAY_AUTH_MODE=token here"
+            )
+            raise ClusterConnectionError(
+                f"--address {self.address}: cannot connect to the Ray cluster ({exc}){hint}"
+            ) from None
 
-    def run(self, tasks: list[ReplicateTask],
-            on_step: TaskProgress | None = None) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
+    def run(
+        self, tasks: list[ReplicateTask], on_step: TaskProgress | None = None
+    ) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
         if not tasks:
             return
         self.connect()
@@ -353,8 +371,10 @@ def _host_port(address: str) -> tuple[str, int]:
     host, _, port = address.removeprefix("ray://").rpartition(":")
     host = host.removeprefix("[").removesuffix("]")
     if not host or not port.isdigit():
-        raise BackendError(f"--address {address}: expected HOST:PORT, the address `ray start "
-                           "--head` prints (e.g. 10.0.0.1:6379)")
+        raise BackendError(
+            f"--address {address}: expected HOST:PORT, the address `ray start "
+            "--head` prints (e.g. 10.0.0.1:6379)"
+        )
     return host, int(port)
 
 
@@ -363,11 +383,15 @@ def _check_reachable(address: str, host: str, port: int) -> None:
     try:
         socket.create_connection((host, port), timeout=CONNECT_TIMEOUT).close()
     except OSError as exc:
-        reason = (exc.strerror or str(exc)) if not isinstance(exc, TimeoutError) else \
-            f"no answer in {CONNECT_TIMEOUT:g} s"
+        reason = (
+            (exc.strerror or str(exc))
+            if not isinstance(exc, TimeoutError)
+            else f"no answer in {CONNECT_TIMEOUT:g} s"
+        )
         raise ClusterConnectionError(
             f"--address {address}: no Ray cluster answers there ({reason}); start one with "
-            f"`ray start --head --port={port}` on {host} or pass the address it prints") from None
+            f"`ray start --head --port={port}` on {host} or pass the address it prints"
+        ) from None
 
 
 def _auth_mode() -> str:
@@ -401,13 +425,18 @@ def _auth_refused(address: str, exc: Exception) -> str:
     detail = str(getattr(exc, "message", exc))  # str() appends a paragraph of help
     where = f"--address {address}"
     source = _token_source()
-    give = ("give this machine the head node's token (`ray get-auth-token` there prints it) in "
-            f"{DEFAULT_TOKEN_FILE}, RAY_AUTH_TOKEN_PATH or RAY_AUTH_TOKEN")
+    give = (
+        "give this machine the head node's token (`ray get-auth-token` there prints it) in "
+        f"{DEFAULT_TOKEN_FILE}, RAY_AUTH_TOKEN_PATH or RAY_AUTH_TOKEN"
+    )
     if _auth_mode() != "token":
-        then = (f", and Ray sends the token in {source} (it must be the head node's; `ray "
-                "get-auth-token` there prints it)" if source else f" and {give}")
-        return (f"{where}: the cluster requires token authentication; set RAY_AUTH_MODE=token "
-                f"here{then}")
+        then = (
+            f", and Ray sends the token in {source} (it must be the head node's; `ray "
+            "get-auth-token` there prints it)"
+            if source
+            else f" and {give}"
+        )
+        return f"{where}: the cluster requires token authentication; set RAY_AUTH_MODE=token here{then}"
     if source is None:
         return f"{where}: RAY_AUTH_MODE=token, but no token is set here ({detail}); {give}"
     return f"{where}: the cluster refused the token in {source}; {give}"
@@ -448,7 +477,8 @@ def _check_gcs(ray: Any, address: str, gcs_address: str) -> None:
     except getattr(ray.exceptions, "RpcError", ()) as exc:
         raise ClusterConnectionError(
             f"--address {address}: no Ray cluster answers there ({exc}); pass the address "
-            "`ray start --head` printed") from None
+            "`ray start --head` printed"
+        ) from None
     except Exception:  # anything else: ray.init tries and reports
         return
 

@@ -54,14 +54,27 @@ class Calibration:
 
     def to_dict(self) -> dict:
         def fit(f: BetaFit) -> dict:
-            return {"beta": f.beta, "log_likelihood": f.log_likelihood, "unbounded": f.unbounded,
-                    "at_lower": f.at_lower,
-                    "standard_error": f.standard_error if math.isfinite(f.standard_error) else None}
+            return {
+                "beta": f.beta,
+                "log_likelihood": f.log_likelihood,
+                "unbounded": f.unbounded,
+                "at_lower": f.at_lower,
+                "standard_error": f.standard_error if math.isfinite(f.standard_error) else None,
+            }
 
-        return {"pooled": fit(self.pooled),
-                "instances": [{"instance": c.instance, "demos": c.demos,
-                               "poor_demos": c.poor_demos, **fit(c.fit),
-                               "beaten_by": list(c.beaten_by)} for c in self.instances]}
+        return {
+            "pooled": fit(self.pooled),
+            "instances": [
+                {
+                    "instance": c.instance,
+                    "demos": c.demos,
+                    "poor_demos": c.poor_demos,
+                    **fit(c.fit),
+                    "beaten_by": list(c.beaten_by),
+                }
+                for c in self.instances
+            ],
+        }
 
 
 def _stream(scenario: Scenario, instance: int, stream: int) -> np.random.Generator:
@@ -70,8 +83,7 @@ def _stream(scenario: Scenario, instance: int, stream: int) -> np.random.Generat
 
 def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[Demo]]:
     """Calibration instance ``instance`` and the demos a passive run would be shown on it."""
-    domain = make_instance(scenario, instance,
-                           seed_sequence(scenario, instance, "calibration", 0))
+    domain = make_instance(scenario, instance, seed_sequence(scenario, instance, "calibration", 0))
     # w*'s own plan and V* refinement join a scene's trajectory library before any demo.
     domain.plan(domain.true_weights)
     domain.optimal_start_values(np.asarray(domain.true_weights, dtype=float)[None])
@@ -79,14 +91,15 @@ def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[D
     order = passive_order(pool, _stream(scenario, instance, 1))
     rng = _stream(scenario, instance, 2)
     demos = []
-    for start in order[:demo_budget(scenario, pool)]:
+    for start in order[: demo_budget(scenario, pool)]:
         poor = bool(rng.random() < scenario.demos.noise_fraction)
         demos.append(domain.demonstrate(int(start), rng, poor=poor))
     return domain, demos
 
 
-def calibrate(scenario: Scenario, instances: int,
-              on_instance: Callable[[InstanceCalibration], None] | None = None) -> Calibration:
+def calibrate(
+    scenario: Scenario, instances: int, on_instance: Callable[[InstanceCalibration], None] | None = None
+) -> Calibration:
     """Fit β on ``instances`` calibration instances of ``scenario``.
 
     Raises:
@@ -100,13 +113,13 @@ def calibrate(scenario: Scenario, instances: int,
         domain, demos = calibration_demos(scenario, i)
         w = np.asarray(domain.true_weights, dtype=float)[None]
 
-        def curve(beta: float, domain: Domain = domain, demos: list[Demo] = demos,
-                  w: np.ndarray = w) -> float:
+        def curve(
+            beta: float, domain: Domain = domain, demos: list[Demo] = demos, w: np.ndarray = w
+        ) -> float:
             return float(domain.log_likelihood(w, demos, beta)[0])
 
         beaten = tuple(domain.alternatives_better(d, w[0]) for d in demos)
-        result = InstanceCalibration(i, len(demos), sum(d.poor for d in demos),
-                                     fit_beta(curve), beaten)
+        result = InstanceCalibration(i, len(demos), sum(d.poor for d in demos), fit_beta(curve), beaten)
         curves.append(curve)
         results.append(result)
         if on_instance is not None:

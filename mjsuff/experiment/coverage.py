@@ -91,8 +91,12 @@ def importance_reference(
     return Reference(points, p / p.sum())
 
 
-def grid_reference(log_likelihood: LogLikelihood, num_points: int = 40_000, k: int = 3,
-                   rng: np.random.Generator | None = None) -> Reference:
+def grid_reference(
+    log_likelihood: LogLikelihood,
+    num_points: int = 40_000,
+    k: int = 3,
+    rng: np.random.Generator | None = None,
+) -> Reference:
     """The posterior tabulated on sphere points (``grid_posterior``: a Fibonacci grid for
     ``k = 3``, uniform points from ``rng`` otherwise)."""
     grid = grid_posterior(log_likelihood, num_points, k=k, rng=rng)
@@ -127,8 +131,9 @@ def check(
     draws the chains' starting points (a prior's draws, where the prior is not the whole
     sphere)."""
     start = time.perf_counter()
-    post = sample_posterior(log_likelihood, num_features, config, rng,
-                            initial=None if initial is None else initial(rng))
+    post = sample_posterior(
+        log_likelihood, num_features, config, rng, initial=None if initial is None else initial(rng)
+    )
     nevd, piob = statistics(post.samples)
     nevd_bound, piob_bound, nevd_ess = posterior_bounds(post, nevd, piob, alpha, delta, method)
     return CheckResult(

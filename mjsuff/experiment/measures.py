@@ -112,7 +112,10 @@ def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> d
         "tpr": _rate(step_tp, step_tp + step_fn),
         "fpr": _rate(step_fp, step_fp + step_tn),
         "policy_optimality": float(np.mean(optimality)),
-        "tp": tp, "fp": fp, "fn": fn, "tn": tn,
+        "tp": tp,
+        "fp": fp,
+        "fn": fn,
+        "tn": tn,
         **paper_measures(step_tp, step_fp, step_fn, step_tn, paper_steps, paper_shares),
     }
 
@@ -170,12 +173,14 @@ def summarize(steps: pd.DataFrame, nevd_thresholds: list[float]) -> dict[str, An
     if not nevd.empty:
         first = nevd[nevd["param"] == nevd["param"].iloc[0]]
         for step, g in first.groupby("step", sort=True):
-            curve.append({
-                "step": int(step),
-                "replicates": len(g),
-                "mean_bound": float(g["bound"].mean()),
-                "mean_true_nevd": float(g["true_nevd"].mean()),
-                "bound_accuracy": float((g["bound"] >= g["true_nevd"]).mean()),
-                **sampler_diagnostics(g),
-            })
+            curve.append(
+                {
+                    "step": int(step),
+                    "replicates": len(g),
+                    "mean_bound": float(g["bound"].mean()),
+                    "mean_true_nevd": float(g["true_nevd"].mean()),
+                    "bound_accuracy": float((g["bound"] >= g["true_nevd"]).mean()),
+                    **sampler_diagnostics(g),
+                }
+            )
     return {"entries": entries, "nevd_bound_by_step": curve}

@@ -44,11 +44,9 @@ def build_rules(scenario: Scenario) -> list[StoppingRule]:
     ]
 
 
-def make_instance(scenario: Scenario, replicate: int,
-                  seed: np.random.SeedSequence | None = None) -> Domain:
+def make_instance(scenario: Scenario, replicate: int, seed: np.random.SeedSequence | None = None) -> Domain:
     """The domain instance of ``replicate`` (its own seed stream), or drawn from ``seed``."""
-    rng = np.random.default_rng(seed if seed is not None else
-                                seed_sequence(scenario, replicate, "instance"))
+    rng = np.random.default_rng(seed if seed is not None else seed_sequence(scenario, replicate, "instance"))
     domain = get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
     domain.configure(scenario)
     return domain
@@ -75,25 +73,33 @@ def stream_seed(seed: int, replicate: int, stream: str, *key: int) -> np.random.
     return np.random.SeedSequence(seed, spawn_key=(replicate, _STREAMS[stream], *key))
 
 
-def nevd_bound_index(post: Posterior, alpha: float, delta: float,
-                     method: QuantileMethod = "normal") -> Callable[[np.ndarray], int]:
+def nevd_bound_index(
+    post: Posterior, alpha: float, delta: float, method: QuantileMethod = "normal"
+) -> Callable[[np.ndarray], int]:
     """The order statistic the nEVD bound takes, as a function of the per-sample values (their
     quantile ESS sets it): what ``Domain.optimal_start_values`` refines toward."""
-    return lambda nevd: var_bound_index(len(nevd), alpha, delta, method,
-                                        post.effective_size(nevd, alpha))
+    return lambda nevd: var_bound_index(len(nevd), alpha, delta, method, post.effective_size(nevd, alpha))
 
 
-def posterior_bounds(post: Posterior, nevd: np.ndarray, piob: np.ndarray, alpha: float,
-                     delta: float, method: QuantileMethod = "normal") -> tuple[float, float, float]:
+def posterior_bounds(
+    post: Posterior,
+    nevd: np.ndarray,
+    piob: np.ndarray,
+    alpha: float,
+    delta: float,
+    method: QuantileMethod = "normal",
+) -> tuple[float, float, float]:
     """(nEVD upper bound, PIOB lower bound, nEVD's effective size) of per-sample values, each
     bound's index chosen for its values' quantile ESS (``Posterior.effective_size``). PIOB's
     non-finite values (``|V_base| = 0``) are left out; with none finite its bound is −inf."""
     nevd_ess = post.effective_size(nevd, alpha)
     nevd_bound = upper_var_bound(nevd, alpha, delta, method, nevd_ess)
     finite = piob[np.isfinite(piob)]
-    piob_bound = (lower_var_bound(finite, alpha, delta, method,
-                                  post.effective_size(piob, 1.0 - alpha))
-                  if finite.size else -math.inf)
+    piob_bound = (
+        lower_var_bound(finite, alpha, delta, method, post.effective_size(piob, 1.0 - alpha))
+        if finite.size
+        else -math.inf
+    )
     return nevd_bound, piob_bound, nevd_ess
 
 
@@ -135,7 +141,8 @@ class _Truth:
         nevd = float(normalized_evd(np.array([v_opt]), v, np.array([self.v_rand]))[0])
         piob = float(percent_improvement(v, np.array([self.v_base]))[0])
         optimality = self.domain.policy_optimality(
-            policy, None if np.array_equal(self.v_opt_starts, self.initial) else self.v_opt_starts)
+            policy, None if np.array_equal(self.v_opt_starts, self.initial) else self.v_opt_starts
+        )
         return nevd, piob, optimality
 
     def raise_to(self, best: np.ndarray) -> dict[str, float]:
@@ -145,8 +152,10 @@ class _Truth:
         raised = np.maximum(self.v_opt_starts, best)
         gain = raised - self.initial
         scale = np.maximum(self.initial - self.mu_rand @ self.domain.true_weights, 1e-12)
-        stats = {"truth_raised_starts": int(np.sum(gain > 1e-12 * (1 + np.abs(self.initial)))),
-                 "truth_raise": float(np.max(gain / scale, initial=0.0))}
+        stats = {
+            "truth_raised_starts": int(np.sum(gain > 1e-12 * (1 + np.abs(self.initial)))),
+            "truth_raise": float(np.max(gain / scale, initial=0.0)),
+        }
         if stats["truth_raised_starts"]:
             self.v_opt_starts = raised
             self._cache = {key: self._score(p) for key, p in self._policies.items()}
@@ -164,13 +173,25 @@ class ReplicateObserver(Protocol):
 
     def begin(self, domain: Domain) -> None: ...
 
-    def step(self, step: int, demo: Demo, samples: np.ndarray, nevd: np.ndarray,
-             map_weights: np.ndarray, map_policy: Policy, rows: list[dict[str, Any]]) -> None: ...
+    def step(
+        self,
+        step: int,
+        demo: Demo,
+        samples: np.ndarray,
+        nevd: np.ndarray,
+        map_weights: np.ndarray,
+        map_policy: Policy,
+        rows: list[dict[str, Any]],
+    ) -> None: ...
 
 
-def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | None = None,
-                  demo_source: DemoSource | None = None,
-                  observer: ReplicateObserver | None = None) -> list[dict[str, Any]]:
+def run_replicate(
+    scenario: Scenario,
+    replicate: int,
+    on_step: StepCallback | None = None,
+    demo_source: DemoSource | None = None,
+    observer: ReplicateObserver | None = None,
+) -> list[dict[str, Any]]:
     """Run one replicate; returns one row per rule and demo step (see README, steps.parquet).
 
     ``demo_source`` (e.g. a saved demo set) replaces the domain's expert; ``observer`` sees the
@@ -211,8 +232,12 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
                 initial = domain.sample_prior(rng, 4 * settings.chains)
             post = sample_posterior(
                 lambda w: domain.log_prior(w) + domain.log_likelihood(w, used, cfg.beta),
-                domain.num_features, settings, rng, initial=initial,
-                until_converged=not key)
+                domain.num_features,
+                settings,
+                rng,
+                initial=initial,
+                until_converged=not key,
+            )
             posteriors[key] = (post, domain.plan(post.map_weights))
         return posteriors[key]
 
@@ -234,47 +259,60 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         post, map_policy = posterior_excluding(frozenset())
         w = post.samples
         mu_robot = domain.start_feature_expectations(map_policy)
-        v_opt_starts = domain.optimal_start_values(w, robot=mu_robot, bound_index=nevd_bound_index(
-            post, suff.alpha, suff.delta, suff.quantile_method))
+        v_opt_starts = domain.optimal_start_values(
+            w,
+            robot=mu_robot,
+            bound_index=nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method),
+        )
         v_opt = v_opt_starts @ sw
         v_robot = policy_values(w, mu_robot, sw)
         nevd = normalized_evd(v_opt, v_robot, policy_values(w, mu_rand, sw))
         piob = percent_improvement(v_robot, policy_values(w, mu_base, sw))
-        nevd_bound, piob_bound, nevd_ess = posterior_bounds(post, nevd, piob, suff.alpha,
-                                                            suff.delta, suff.quantile_method)
-        evidence = Evidence(domain, list(demos), map_policy, nevd_bound, piob_bound,
-                            lambda ex: posterior_excluding(ex)[1], post.converged)
+        nevd_bound, piob_bound, nevd_ess = posterior_bounds(
+            post, nevd, piob, suff.alpha, suff.delta, suff.quantile_method
+        )
+        evidence = Evidence(
+            domain,
+            list(demos),
+            map_policy,
+            nevd_bound,
+            piob_bound,
+            lambda ex: posterior_excluding(ex)[1],
+            post.converged,
+        )
         first_row = len(rows)
         simulation = domain.simulation_stats()
         for rule in rules:
             decision = rule.decide(evidence)
             true_nevd, true_piob, optimality = truth(decision.policy)
             scored.append((decision.policy, rule.measures_improvement))
-            rows.append({
-                "replicate": replicate,
-                "rule": rule.kind,
-                "param": float(rule.param),
-                "step": step,
-                "start": start,
-                "pool_size": pool_size,
-                "poor_demo": poor,
-                "bound": float(decision.bound),
-                "true_value": true_piob if rule.measures_improvement else true_nevd,
-                "true_nevd": true_nevd,
-                "true_piob": true_piob,
-                "decision": bool(decision.sufficient),
-                "policy_optimality": optimality,
-                "map_log_likelihood": post.map_log_likelihood,
-                "acceptance_rate": post.acceptance_rate,
-                "rhat": post.rhat,
-                "ess_bulk": post.ess_bulk,
-                "ess_tail": post.ess_tail,
-                "bound_ess": nevd_ess,
-                "mcmc_steps": post.steps,
-                "converged": post.converged,
-                "simulated_steps": simulation.get("simulated_steps", 0),
-                "diverged_rollouts": simulation.get("diverged_rollouts", 0),
-            })
+            rows.append(
+                {
+                    "replicate": replicate,
+                    "rule": rule.kind,
+                    "param": float(rule.param),
+                    "step": step,
+                    "start": start,
+                    "pool_size": pool_size,
+                    "poor_demo": poor,
+                    "bound": float(decision.bound),
+                    "true_value": true_piob if rule.measures_improvement else true_nevd,
+                    "true_nevd": true_nevd,
+                    "true_piob": true_piob,
+                    "decision": bool(decision.sufficient),
+                    "policy_optimality": optimality,
+                    "map_log_likelihood": post.map_log_likelihood,
+                    "acceptance_rate": post.acceptance_rate,
+                    "rhat": post.rhat,
+                    "ess_bulk": post.ess_bulk,
+                    "ess_tail": post.ess_tail,
+                    "bound_ess": nevd_ess,
+                    "mcmc_steps": post.steps,
+                    "converged": post.converged,
+                    "simulated_steps": simulation.get("simulated_steps", 0),
+                    "diverged_rollouts": simulation.get("diverged_rollouts", 0),
+                }
+            )
         if observer is not None:
             observer.step(step, demos[-1], w, nevd, post.map_weights, map_policy, rows[first_row:])
         if on_step is not None:
@@ -282,14 +320,20 @@ def run_replicate(scenario: Scenario, replicate: int, on_step: StepCallback | No
         if step < max_demos:
             if cfg.selection == "active":
                 pool_evd = domain.pool_regrets(w, map_policy)
-                next_start = active_choice(pool_evd, asked, suff.alpha, suff.delta,
-                                           suff.quantile_method, nevd_ess)
+                next_start = active_choice(
+                    pool_evd, asked, suff.alpha, suff.delta, suff.quantile_method, nevd_ess
+                )
             else:
                 next_start = int(order[step])
     # The truth nothing beats: raised to everything simulated under w*, every row rescored.
     stats = truth.raise_to(domain.best_simulated_start_values(domain.true_weights))
     for row, (policy, measures_improvement) in zip(rows, scored, strict=True):
         true_nevd, true_piob, optimality = truth(policy)
-        row.update(true_nevd=true_nevd, true_piob=true_piob, policy_optimality=optimality,
-                   true_value=true_piob if measures_improvement else true_nevd, **stats)
+        row.update(
+            true_nevd=true_nevd,
+            true_piob=true_piob,
+            policy_optimality=optimality,
+            true_value=true_piob if measures_improvement else true_nevd,
+            **stats,
+        )
     return rows

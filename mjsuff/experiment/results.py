@@ -80,8 +80,10 @@ def prepare_output(directory: Path, overwrite: bool, resume: bool = False) -> No
     if directory.exists() and not directory.is_dir():
         raise OutputError(f"{directory}: --out exists and is not a directory")
     if directory.is_dir() and any(directory.iterdir()) and not (overwrite or resume):
-        raise OutputError(f"{directory}: --out is not empty; pass --resume to continue the run "
-                          "in it or --overwrite to replace it")
+        raise OutputError(
+            f"{directory}: --out is not empty; pass --resume to continue the run "
+            "in it or --overwrite to replace it"
+        )
     try:
         directory.mkdir(parents=True, exist_ok=True)
         probe = directory / ".write-probe"

@@ -126,8 +126,11 @@ def merge_recordings(directory: Path) -> str | None:
     inputs = ([target] if target.exists() else []) + parts
     tmp = directory / f".{RECORDING}.tmp"
     try:
-        done = subprocess.run([sys.executable, "-m", "rerun", "rrd", "merge", *map(str, inputs),
-                               "-o", str(tmp)], capture_output=True, text=True)
+        done = subprocess.run(
+            [sys.executable, "-m", "rerun", "rrd", "merge", *map(str, inputs), "-o", str(tmp)],
+            capture_output=True,
+            text=True,
+        )
     except OSError as exc:
         return f"rerun rrd merge could not start ({exc})"
     if done.returncode != 0 or not tmp.exists():
@@ -145,34 +148,56 @@ def _drop_empty(directory: Path) -> None:
         directory.rmdir()
 
 
-def finalize(directory: Path, scenario: Scenario, started: float, interrupted: bool,
-             backend: str = "serial", recorded: bool = True) -> RunResult:
+def finalize(
+    directory: Path,
+    scenario: Scenario,
+    started: float,
+    interrupted: bool,
+    backend: str = "serial",
+    recorded: bool = True,
+) -> RunResult:
     """Combine a cell's finished replicates into ``steps.parquet``, ``summary.json`` and
     ``run.json``, then merge its recordings (a failed merge is reported in ``run.json`` and
     ``RunResult.recording_error``, never at the cost of the results)."""
     steps = read_steps(directory)
     completed = int(steps["replicate"].nunique()) if not steps.empty else 0
-    summary = summarize(steps, scenario.rules.nevd_thresholds) if completed else {
-        "entries": [], "nevd_bound_by_step": []}
+    summary = (
+        summarize(steps, scenario.rules.nevd_thresholds)
+        if completed
+        else {"entries": [], "nevd_bound_by_step": []}
+    )
     if completed:
         atomic_write_parquet(directory / "steps.parquet", steps)
     write_json(directory / "summary.json", {"scenario": scenario.name, **summary})
     simulation = simulation_totals(steps)
     sampler = sampler_totals(steps)
-    run = {**_run_info(scenario, backend, recorded, started, interrupted),
-           "planned_replicates": scenario.replicates, "completed_replicates": completed,
-           **simulation, "sampler": sampler}
+    run = {
+        **_run_info(scenario, backend, recorded, started, interrupted),
+        "planned_replicates": scenario.replicates,
+        "completed_replicates": completed,
+        **simulation,
+        "sampler": sampler,
+    }
     write_json(directory / "run.json", run)
     error = merge_recordings(directory)
     _drop_empty(directory / RECORDINGS)
     if error is not None:
         write_json(directory / "run.json", {**run, "recording_error": error})
-    return RunResult(directory, completed, scenario.replicates, interrupted, summary, simulation,
-                     recording_error=error, sampler=sampler)
+    return RunResult(
+        directory,
+        completed,
+        scenario.replicates,
+        interrupted,
+        summary,
+        simulation,
+        recording_error=error,
+        sampler=sampler,
+    )
 
 
-def _run_info(scenario: Scenario, backend: str, recorded: bool, started: float,
-              interrupted: bool) -> dict[str, Any]:
+def _run_info(
+    scenario: Scenario, backend: str, recorded: bool, started: float, interrupted: bool
+) -> dict[str, Any]:
     """The fields every ``run.json`` starts with."""
     return {
         "mjsuff_version": __version__,
@@ -201,14 +226,19 @@ def check_resumable(directory: Path, scenario: Scenario, record: bool) -> None:
     new = flat_keys(tomllib.loads(scenario.to_toml()))
     for key in sorted(set(old) | set(new)):
         if key != "replicates" and old.get(key) != new.get(key):
-            raise OutputError(f"{directory}: --resume: the scenario differs from the run's "
-                              f"config.toml at {key} ({old.get(key)!r} there, {new.get(key)!r} "
-                              "now); resume with the same scenario and overrides")
-    done = [int(p.stem.removeprefix("replicate-"))
-            for p in directory.glob("**/replicates/replicate-*.parquet")]
+            raise OutputError(
+                f"{directory}: --resume: the scenario differs from the run's "
+                f"config.toml at {key} ({old.get(key)!r} there, {new.get(key)!r} "
+                "now); resume with the same scenario and overrides"
+            )
+    done = [
+        int(p.stem.removeprefix("replicate-")) for p in directory.glob("**/replicates/replicate-*.parquet")
+    ]
     if done and max(done) >= scenario.replicates:
-        raise OutputError(f"{directory}: --resume: the run already has replicate {max(done)}; "
-                          f"--replicates can grow, not shrink (got {scenario.replicates})")
+        raise OutputError(
+            f"{directory}: --resume: the run already has replicate {max(done)}; "
+            f"--replicates can grow, not shrink (got {scenario.replicates})"
+        )
     for run_json in directory.glob("**/run.json"):
         try:
             was_recorded = json.loads(run_json.read_text()).get("recorded", True)
@@ -216,8 +246,10 @@ def check_resumable(directory: Path, scenario: Scenario, record: bool) -> None:
             continue
         if was_recorded != record:
             flag = "without --no-record" if was_recorded else "with --no-record"
-            raise OutputError(f"{directory}: --resume: the run was started {flag}; resume it "
-                              "the same way, so its recording covers every replicate")
+            raise OutputError(
+                f"{directory}: --resume: the run was started {flag}; resume it "
+                "the same way, so its recording covers every replicate"
+            )
 
 
 def _cell_directory(directory: Path, cell: SweepCell, sweep: bool) -> Path:
@@ -255,8 +287,10 @@ def run_scenario(
     if sweep and demo_sources:
         raise OutputError(f"{directory}: saved demos (--demos) cannot be used with a sweep")
     if resume and demo_sources:
-        raise OutputError(f"{directory}: --resume cannot be combined with --demos (nothing "
-                          "records which demo files the first part of the run used)")
+        raise OutputError(
+            f"{directory}: --resume cannot be combined with --demos (nothing "
+            "records which demo files the first part of the run used)"
+        )
     if resume:
         check_resumable(directory, scenario, record)
     prepare_output(directory, overwrite, resume)
@@ -274,13 +308,30 @@ def run_scenario(
             if replicate_path(cell_dir, replicate).exists():
                 finished += 1
                 continue
-            tasks.append(ReplicateTask((cell.index, replicate), cell.scenario, replicate,
-                                       (demo_sources or {}).get(replicate), record))
+            tasks.append(
+                ReplicateTask(
+                    (cell.index, replicate),
+                    cell.scenario,
+                    replicate,
+                    (demo_sources or {}).get(replicate),
+                    record,
+                )
+            )
     if sweep:
-        write_json(directory / "sweep.json", {"keys": list(scenario.sweep), "cells": [
-            {"index": c.index, "labels": c.labels,
-             "directory": str(_cell_directory(directory, c, True).relative_to(directory))}
-            for c in cells]})
+        write_json(
+            directory / "sweep.json",
+            {
+                "keys": list(scenario.sweep),
+                "cells": [
+                    {
+                        "index": c.index,
+                        "labels": c.labels,
+                        "directory": str(_cell_directory(directory, c, True).relative_to(directory)),
+                    }
+                    for c in cells
+                ],
+            },
+        )
 
     planned = len(cells) * scenario.replicates
     started = time.perf_counter()
@@ -305,8 +356,9 @@ def run_scenario(
             # (a kill in between leaves a part without rows, which the merge drops and a resume
             # writes again when it redoes the replicate).
             if result.recording is not None:
-                atomic_write_bytes(cell_dir / RECORDINGS / f"replicate-{task.replicate:05d}.rrd",
-                                   result.recording)
+                atomic_write_bytes(
+                    cell_dir / RECORDINGS / f"replicate-{task.replicate:05d}.rrd", result.recording
+                )
             write_replicate(cell_dir, task.replicate, result.rows)
             done_keys.add(task.key)
             fractions.pop(task.key, None)
@@ -316,17 +368,39 @@ def run_scenario(
     finally:
         # Ctrl-C, or anything failing mid-run (e.g. a saved demo set without the demo asked
         # for): the finished replicates are summarized before the error goes up.
-        results = [CellResult(c.labels, finalize(_cell_directory(directory, c, sweep), c.scenario,
-                                                 started, interrupted, backend.describe(), record))
-                   for c in cells]
-        total = (results[0].result if not sweep else
-                 finalize_sweep(directory, scenario, results, started, interrupted,
-                                backend.describe(), record))
+        results = [
+            CellResult(
+                c.labels,
+                finalize(
+                    _cell_directory(directory, c, sweep),
+                    c.scenario,
+                    started,
+                    interrupted,
+                    backend.describe(),
+                    record,
+                ),
+            )
+            for c in cells
+        ]
+        total = (
+            results[0].result
+            if not sweep
+            else finalize_sweep(
+                directory, scenario, results, started, interrupted, backend.describe(), record
+            )
+        )
     return total
 
 
-def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult], started: float,
-                   interrupted: bool, backend: str, recorded: bool = True) -> RunResult:
+def finalize_sweep(
+    directory: Path,
+    scenario: Scenario,
+    results: list[CellResult],
+    started: float,
+    interrupted: bool,
+    backend: str,
+    recorded: bool = True,
+) -> RunResult:
     """The top level of a sweep: every cell's steps in one ``steps.parquet`` (with a ``cell``
     column and one column per sweep key), ``summary.json`` with each cell's summary, ``run.json``."""
     frames = []
@@ -336,23 +410,41 @@ def finalize_sweep(directory: Path, scenario: Scenario, results: list[CellResult
             continue
         steps.insert(0, "cell", index)
         for key, value in cell.labels.items():  # lists and tables as their JSON text
-            steps.insert(1, key, value if isinstance(value, str | int | float | bool)
-                         else json.dumps(value))
+            steps.insert(1, key, value if isinstance(value, str | int | float | bool) else json.dumps(value))
         frames.append(steps)
     if frames:
         atomic_write_parquet(directory / "steps.parquet", pd.concat(frames, ignore_index=True))
-    write_json(directory / "summary.json", {"scenario": scenario.name, "cells": [
-        {"labels": c.labels, **c.result.summary} for c in results]})
+    write_json(
+        directory / "summary.json",
+        {"scenario": scenario.name, "cells": [{"labels": c.labels, **c.result.summary} for c in results]},
+    )
     completed = sum(c.result.completed for c in results)
-    simulation = {k: sum(c.result.simulation[k] for c in results)
-                  for k in ("simulated_steps", "diverged_rollouts")}
-    sampler = {k: sum(c.result.sampler.get(k, 0) for c in results)
-               for k in ("posteriors", "unconverged_posteriors")}
-    write_json(directory / "run.json", {
-        **_run_info(scenario, backend, recorded, started, interrupted), "cells": len(results),
-        "planned_replicates": scenario.replicates * len(results), "completed_replicates": completed,
-        **simulation, "sampler": sampler})
+    simulation = {
+        k: sum(c.result.simulation[k] for c in results) for k in ("simulated_steps", "diverged_rollouts")
+    }
+    sampler = {
+        k: sum(c.result.sampler.get(k, 0) for c in results) for k in ("posteriors", "unconverged_posteriors")
+    }
+    write_json(
+        directory / "run.json",
+        {
+            **_run_info(scenario, backend, recorded, started, interrupted),
+            "cells": len(results),
+            "planned_replicates": scenario.replicates * len(results),
+            "completed_replicates": completed,
+            **simulation,
+            "sampler": sampler,
+        },
+    )
     errors = [c.result.recording_error for c in results if c.result.recording_error]
-    return RunResult(directory, completed, scenario.replicates * len(results), interrupted,
-                     {"entries": [], "nevd_bound_by_step": []}, simulation, tuple(results),
-                     errors[0] if errors else None, sampler)
+    return RunResult(
+        directory,
+        completed,
+        scenario.replicates * len(results),
+        interrupted,
+        {"entries": [], "nevd_bound_by_step": []},
+        simulation,
+        tuple(results),
+        errors[0] if errors else None,
+        sampler,
+    )

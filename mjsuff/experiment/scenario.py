@@ -45,10 +45,12 @@ class DemoSettings(_Strict):
     noise_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of poor demos")
     beta: float = Field(10.0, gt=0.0, le=1000.0, description="Boltzmann rationality of the likelihood")
     candidates: Literal["library", "family"] = Field(
-        "library", description="scene domains: what the likelihood compares a demo with besides "
-                               "random trajectories and its own perturbations — the library's "
-                               "optima for fixed reward directions, or the demonstrator's own "
-                               "first candidates (its path family) from the demo's start")
+        "library",
+        description="scene domains: what the likelihood compares a demo with besides "
+        "random trajectories and its own perturbations — the library's "
+        "optima for fixed reward directions, or the demonstrator's own "
+        "first candidates (its path family) from the demo's start",
+    )
 
 
 class SufficiencySettings(_Strict):
@@ -70,11 +72,17 @@ class RuleSettings(_Strict):
     validation_intervals: list[Interval] = [3, 4, 5, 6, 7]
     validation_min_held_out: int = Field(3, ge=1, description="held-out demos before it may stop")
     unchanged_tolerance: float = Field(
-        0.05, gt=0.0, description="MuJoCo scenes: π_MAP counts as unchanged (patience) when its "
-        "trajectory features from every evaluation start moved by at most this (feature units)")
+        0.05,
+        gt=0.0,
+        description="MuJoCo scenes: π_MAP counts as unchanged (patience) when its "
+        "trajectory features from every evaluation start moved by at most this (feature units)",
+    )
     match_tolerance: float = Field(
-        0.1, gt=0.0, description="MuJoCo scenes: π_MAP matches a held-out demo (validation set) "
-        "when its trajectory features from the demo's start are within this of the demo's")
+        0.1,
+        gt=0.0,
+        description="MuJoCo scenes: π_MAP matches a held-out demo (validation set) "
+        "when its trajectory features from the demo's start are within this of the demo's",
+    )
 
 
 class Scenario(_Strict):
@@ -90,8 +98,10 @@ class Scenario(_Strict):
     sufficiency: SufficiencySettings = SufficiencySettings()
     rules: RuleSettings = RuleSettings()
     sweep: dict[str, list[Any]] = Field(
-        default_factory=dict, description="grid: dotted scenario key -> values; every combination "
-        "is a cell run with the same seeds (see ``cells``)")
+        default_factory=dict,
+        description="grid: dotted scenario key -> values; every combination "
+        "is a cell run with the same seeds (see ``cells``)",
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
@@ -99,20 +109,26 @@ class Scenario(_Strict):
         if not (r.nevd_thresholds or r.piob_thresholds or r.patience or r.validation_intervals):
             raise ValueError("rules: at least one rule is needed")
         if (r.patience or r.validation_intervals) and not r.nevd_thresholds:
-            raise ValueError("rules.nevd_thresholds: the baselines are scored at the nEVD "
-                             "thresholds, so at least one is needed")
+            raise ValueError(
+                "rules.nevd_thresholds: the baselines are scored at the nEVD "
+                "thresholds, so at least one is needed"
+            )
         a, d, q = self.sufficiency.alpha, self.sufficiency.delta, self.sufficiency.quantile_method
         n = self.posterior.num_samples
         least = least_effective_size(n, a, d, q)
         if least is None:
             needed = next(m for m in range(n, 100_000) if least_effective_size(m, a, d, q))
-            raise ValueError(f"posterior.num_samples: at least {needed} samples are needed for a "
-                             f"{1 - d:g}-confidence bound on the {a:g}-VaR ({q} order statistic; "
-                             f"got {n})")
+            raise ValueError(
+                f"posterior.num_samples: at least {needed} samples are needed for a "
+                f"{1 - d:g}-confidence bound on the {a:g}-VaR ({q} order statistic; "
+                f"got {n})"
+            )
         if self.posterior.min_ess is not None and self.posterior.min_ess < least:
-            raise ValueError(f"posterior.min_ess: the {1 - d:g}-confidence bound on the {a:g}-VaR "
-                             f"from {n} samples needs an effective size of at least {least} "
-                             f"(got {self.posterior.min_ess:g})")
+            raise ValueError(
+                f"posterior.min_ess: the {1 - d:g}-confidence bound on the {a:g}-VaR "
+                f"from {n} samples needs an effective size of at least {least} "
+                f"(got {self.posterior.min_ess:g})"
+            )
         return self
 
     def cells(self, source: str = "scenario") -> list[SweepCell]:
@@ -127,7 +143,8 @@ class Scenario(_Strict):
             if key.split(".")[0] in _UNSWEEPABLE or not self.sweep[key]:
                 raise ScenarioError(
                     f"{source}: sweep.{key}: expected a non-empty list of values for a scenario key "
-                    f"other than {', '.join(sorted(_UNSWEEPABLE))}")
+                    f"other than {', '.join(sorted(_UNSWEEPABLE))}"
+                )
         cells = []
         for index, values in enumerate(itertools.product(*(self.sweep[k] for k in keys))):
             labels = dict(zip(keys, values, strict=True))
@@ -149,7 +166,8 @@ class Scenario(_Strict):
         s = self.sufficiency
         least = least_effective_size(self.posterior.num_samples, s.alpha, s.delta, s.quantile_method)
         return self.posterior.model_copy(
-            update={"min_ess": float(max(self.posterior.ess_target, least or 0))})
+            update={"min_ess": float(max(self.posterior.ess_target, least or 0))}
+        )
 
     def domain_params(self) -> BaseModel:
         return get_domain(self.domain.name).params.model_validate(self.domain.params)
@@ -199,6 +217,7 @@ class SweepCell:
     @property
     def dirname(self) -> str:
         """``cell-NN_key=value_...`` (the last part of each key), safe as a directory name."""
+
         def text(v: Any) -> str:
             return "+".join(map(str, v)) if isinstance(v, list) else str(v)
 
@@ -256,8 +275,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
     return data
 
 
-def _origin(source: str, error: dict[str, Any], prefix: tuple[Any, ...],
-            overridden: set[str]) -> str:
+def _origin(source: str, error: dict[str, Any], prefix: tuple[Any, ...], overridden: set[str]) -> str:
     """``source``, or ``source (--set KEY)`` when the offending key came from an override."""
     dotted = _error_key(error, prefix)
     for key in sorted(overridden, key=len, reverse=True):
@@ -266,8 +284,7 @@ def _origin(source: str, error: dict[str, Any], prefix: tuple[Any, ...],
     return source
 
 
-def scenario_from_dict(data: dict[str, Any], source: str,
-                       overridden: set[str] | None = None) -> Scenario:
+def scenario_from_dict(data: dict[str, Any], source: str, overridden: set[str] | None = None) -> Scenario:
     """Validate raw scenario data; ``source`` (and any ``overridden`` key) is named in errors."""
     overridden = overridden or set()
     try:
@@ -276,14 +293,16 @@ def scenario_from_dict(data: dict[str, Any], source: str,
         error = exc.errors()[0]
         raise ScenarioError(f"{_origin(source, error, (), overridden)}: {_describe(error)}") from None
     if scenario.domain.name not in REGISTRY:
-        raise ScenarioError(f"{source}: domain.name: expected one of {sorted(REGISTRY)} "
-                            f"(got {scenario.domain.name!r})")
+        raise ScenarioError(
+            f"{source}: domain.name: expected one of {sorted(REGISTRY)} (got {scenario.domain.name!r})"
+        )
     try:
         scenario.domain_params()
     except ValidationError as exc:
         error, prefix = exc.errors()[0], ("domain", "params")
         raise ScenarioError(
-            f"{_origin(source, error, prefix, overridden)}: {_describe(error, prefix)}") from None
+            f"{_origin(source, error, prefix, overridden)}: {_describe(error, prefix)}"
+        ) from None
     return scenario
 
 
@@ -336,8 +355,9 @@ def resolve_scenario(path: str | Path) -> Path:
         return shipped[given.name]
     if given.exists():
         return given  # a directory: load_scenario says so
-    raise ScenarioError(f"{path}: no such scenario file, nor a shipped scenario (shipped: "
-                        f"{', '.join(shipped) or 'none'})")
+    raise ScenarioError(
+        f"{path}: no such scenario file, nor a shipped scenario (shipped: {', '.join(shipped) or 'none'})"
+    )
 
 
 def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scenario:

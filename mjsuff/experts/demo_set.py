@@ -25,8 +25,18 @@ from typing import Any
 import numpy as np
 
 FORMAT_VERSION = 1
-ARRAYS = ("start_index", "start_qpos", "qpos", "qvel", "controls", "features", "intended",
-          "executed", "tracking_error", "poor")
+ARRAYS = (
+    "start_index",
+    "start_qpos",
+    "qpos",
+    "qvel",
+    "controls",
+    "features",
+    "intended",
+    "executed",
+    "tracking_error",
+    "poor",
+)
 
 
 class DemoFileError(ValueError):
@@ -54,8 +64,10 @@ class DemoSet:
         meta = json.dumps({**self.meta, "format_version": FORMAT_VERSION})
         _atomic(path, lambda f: np.savez_compressed(f, meta=np.array(meta), **self.arrays))
         if self.true_weights is not None:
-            truth = {"true_weights": self.true_weights.tolist(),
-                     "values": None if self.values is None else self.values.tolist()}
+            truth = {
+                "true_weights": self.true_weights.tolist(),
+                "values": None if self.values is None else self.values.tolist(),
+            }
             _atomic(truth_path(path), lambda f: f.write(json.dumps(truth, indent=1).encode()))
         return path
 
@@ -78,8 +90,7 @@ def _atomic(path: Path, write) -> None:
         raise
 
 
-def load_demo_set(path: str | Path, expect: dict[str, Any] | None = None,
-                  truth: bool = False) -> DemoSet:
+def load_demo_set(path: str | Path, expect: dict[str, Any] | None = None, truth: bool = False) -> DemoSet:
     """Read and validate a demo set.
 
     Args:
@@ -107,13 +118,17 @@ def load_demo_set(path: str | Path, expect: dict[str, Any] | None = None,
     except json.JSONDecodeError as exc:
         raise DemoFileError(f"{path}: field 'meta' is not valid JSON ({exc})") from None
     if not isinstance(meta, dict) or meta.get("format_version") != FORMAT_VERSION:
-        raise DemoFileError(f"{path}: field 'meta.format_version': expected {FORMAT_VERSION}, "
-                            f"got {meta.get('format_version') if isinstance(meta, dict) else meta!r}")
+        raise DemoFileError(
+            f"{path}: field 'meta.format_version': expected {FORMAT_VERSION}, "
+            f"got {meta.get('format_version') if isinstance(meta, dict) else meta!r}"
+        )
     _check_shapes(path, contents, meta)
     for key, wanted in (expect or {}).items():
         if meta.get(key) != wanted:
-            raise DemoFileError(f"{path}: field 'meta.{key}': expected {wanted!r}, got "
-                                f"{meta.get(key)!r} (a demo set of another scene or instance)")
+            raise DemoFileError(
+                f"{path}: field 'meta.{key}': expected {wanted!r}, got "
+                f"{meta.get(key)!r} (a demo set of another scene or instance)"
+            )
     demo_set = DemoSet(contents, meta)
     if truth:
         tpath = truth_path(path)
@@ -124,8 +139,10 @@ def load_demo_set(path: str | Path, expect: dict[str, Any] | None = None,
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DemoFileError(f"{tpath}: not a readable truth file ({type(exc).__name__}: {exc})") from None
         if demo_set.true_weights.shape != (meta["num_features"],):
-            raise DemoFileError(f"{tpath}: field 'true_weights': expected {meta['num_features']} "
-                                f"values, got shape {demo_set.true_weights.shape}")
+            raise DemoFileError(
+                f"{tpath}: field 'true_weights': expected {meta['num_features']} "
+                f"values, got shape {demo_set.true_weights.shape}"
+            )
     return demo_set
 
 
@@ -134,13 +151,22 @@ def _check_shapes(path: Path, a: dict[str, np.ndarray], meta: dict[str, Any]) ->
         nq, nv, nu, k = (int(meta[key]) for key in ("nq", "nv", "nu", "num_features"))
         steps, d = int(meta["steps"]), int(meta["path_dims"])
     except (KeyError, TypeError, ValueError) as exc:
-        raise DemoFileError(f"{path}: field 'meta' lacks the sizes nq/nv/nu/num_features/steps/"
-                            f"path_dims ({exc})") from None
+        raise DemoFileError(
+            f"{path}: field 'meta' lacks the sizes nq/nv/nu/num_features/steps/path_dims ({exc})"
+        ) from None
     n = a["start_index"].shape[0] if a["start_index"].ndim == 1 else -1
-    expected = {"start_index": (n,), "start_qpos": (n, nq), "qpos": (n, steps, nq),
-                "qvel": (n, steps, nv), "controls": (n, steps, nu), "features": (n, k),
-                "intended": (n, steps, d), "executed": (n, steps, d), "tracking_error": (n,),
-                "poor": (n,)}
+    expected = {
+        "start_index": (n,),
+        "start_qpos": (n, nq),
+        "qpos": (n, steps, nq),
+        "qvel": (n, steps, nv),
+        "controls": (n, steps, nu),
+        "features": (n, k),
+        "intended": (n, steps, d),
+        "executed": (n, steps, d),
+        "tracking_error": (n,),
+        "poor": (n,),
+    }
     for name, shape in expected.items():
         if a[name].shape != shape:
             raise DemoFileError(f"{path}: array '{name}': expected shape {shape}, got {a[name].shape}")

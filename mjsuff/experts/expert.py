@@ -41,14 +41,20 @@ class ExpertSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
     rationality: float | None = Field(
-        None, gt=0.0, description="Boltzmann rationality over candidates; none = always the best")
+        None, gt=0.0, description="Boltzmann rationality over candidates; none = always the best"
+    )
     refine_rounds: int = Field(2, ge=0, le=10, description="local refinement rounds around the best path")
     refine_candidates: int = Field(16, ge=1, le=256, description="candidates per refinement round")
     correction_rounds: int = Field(
-        0, ge=0, le=1000, description="most rounds of correcting the chosen demo by smooth control "
-                                      "perturbations (64 rollouts each); 0 = none")
+        0,
+        ge=0,
+        le=1000,
+        description="most rounds of correcting the chosen demo by smooth control "
+        "perturbations (64 rollouts each); 0 = none",
+    )
     correction_patience: int = Field(
-        3, ge=1, le=100, description="correction stops after this many rounds in a row without improvement")
+        3, ge=1, le=100, description="correction stops after this many rounds in a row without improvement"
+    )
 
 
 @dataclass(frozen=True)
@@ -79,8 +85,9 @@ class ExecutedPaths:
     @classmethod
     def empty(cls) -> ExecutedPaths:
         """No candidate could be executed."""
-        return cls(np.empty((0, 0)), np.empty((0, 0, 0)), np.empty((0, 0, 0)), None,
-                   np.empty((0, 0)), np.empty(0))
+        return cls(
+            np.empty((0, 0)), np.empty((0, 0, 0)), np.empty((0, 0, 0)), None, np.empty((0, 0)), np.empty(0)
+        )
 
 
 @dataclass(frozen=True)
@@ -136,8 +143,7 @@ class Expert(abc.ABC):
         """The expert's first candidates from a start: path parameters ``(C, p)``."""
 
     @abc.abstractmethod
-    def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int,
-                scale: float) -> np.ndarray:
+    def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int, scale: float) -> np.ndarray:
         """``count`` candidates near ``params`` ``(p,)``, spread ``scale`` (1 = the coarse grid's)."""
 
     def primitives(self, start_qpos: np.ndarray) -> np.ndarray:
@@ -147,8 +153,7 @@ class Expert(abc.ABC):
         return self.coarse_params(start_qpos)
 
     @abc.abstractmethod
-    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator,
-                      count: int) -> np.ndarray:
+    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator, count: int) -> np.ndarray:
         """``count`` random goal-directed paths ``(count, p)`` of the family: parameters drawn
         uniformly over their ranges, each path ending at the goal (the scenes' random policy)."""
 
@@ -161,9 +166,14 @@ class Expert(abc.ABC):
         """The task-space path ``(B, T, d)`` (m) of joint positions ``(B, T, nq)``, as in
         ``ExecutedPaths``."""
 
-    def correct(self, start_qpos: np.ndarray, controls: np.ndarray, value: float,
-                weights: np.ndarray, rng: np.random.Generator
-                ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None, int]:
+    def correct(
+        self,
+        start_qpos: np.ndarray,
+        controls: np.ndarray,
+        value: float,
+        weights: np.ndarray,
+        rng: np.random.Generator,
+    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None, int]:
         """Correct executed ``controls`` ``(T, nu)`` worth ``value`` under ``weights``: -> the best
         corrected ``(qpos, qvel, controls, features)`` (None if no round improved) and the
         rounds that improved."""
@@ -182,8 +192,9 @@ class Expert(abc.ABC):
                     break
         return best, improved
 
-    def demonstrate(self, start_qpos: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
-                    poor: bool = False) -> ExpertDemo:
+    def demonstrate(
+        self, start_qpos: np.ndarray, weights: np.ndarray, rng: np.random.Generator, poor: bool = False
+    ) -> ExpertDemo:
         """A demonstration from ``start_qpos`` judged by hidden ``weights``; see the module docs."""
         weights = np.asarray(weights, dtype=float)
         done, failures = self.execute(start_qpos, self.coarse_params(start_qpos))
@@ -228,11 +239,23 @@ class Expert(abc.ABC):
                 error = float(np.linalg.norm(executed - chosen.intended[j], axis=1).max())
                 value = float(features @ weights)
         return ExpertDemo(
-            start_qpos=np.asarray(start_qpos, dtype=float).copy(), qpos=qpos, qvel=qvel,
-            controls=controls, features=features, intended=chosen.intended[j], executed=executed,
-            tracking_error=error, params=chosen.params[j], value=value,
-            best_value=max(value, float(values[usable].max())), candidates=len(values),
-            ik_failures=len(failures), poor=poor, failures=failures, corrections=corrections)
+            start_qpos=np.asarray(start_qpos, dtype=float).copy(),
+            qpos=qpos,
+            qvel=qvel,
+            controls=controls,
+            features=features,
+            intended=chosen.intended[j],
+            executed=executed,
+            tracking_error=error,
+            params=chosen.params[j],
+            value=value,
+            best_value=max(value, float(values[usable].max())),
+            candidates=len(values),
+            ik_failures=len(failures),
+            poor=poor,
+            failures=failures,
+            corrections=corrections,
+        )
 
     @staticmethod
     def _best(paths: ExecutedPaths, weights: np.ndarray) -> tuple[np.ndarray, float] | None:

@@ -37,13 +37,16 @@ EXPERTS: dict[str, tuple[type[Scene], type[Expert]]] = {
 def scene_instance(scenario: Scenario, replicate: int = 0) -> tuple[Scene, np.ndarray]:
     """Replicate ``replicate``'s scene instance and hidden weights (as ``mjsuff run`` builds them)."""
     if scenario.domain.name not in EXPERTS:
-        raise ValueError(f"domain.name: demos are generated for the MuJoCo scenes "
-                         f"{sorted(EXPERTS)}, not {scenario.domain.name!r}")
+        raise ValueError(
+            f"domain.name: demos are generated for the MuJoCo scenes "
+            f"{sorted(EXPERTS)}, not {scenario.domain.name!r}"
+        )
     return replicate_instance(scenario.domain.name, scenario.domain_params(), scenario.seed, replicate)
 
 
-def replicate_instance(name: str, params: BaseModel, seed: int, replicate: int,
-                       threads: int | None = None) -> tuple[Scene, np.ndarray]:
+def replicate_instance(
+    name: str, params: BaseModel, seed: int, replicate: int, threads: int | None = None
+) -> tuple[Scene, np.ndarray]:
     """The scene instance and hidden weights of replicate ``replicate`` of a run of scene ``name``
     with scenario seed ``seed`` (``scene_instance`` without the scenario)."""
     rng = np.random.default_rng(stream_seed(seed, replicate, "instance"))
@@ -54,21 +57,34 @@ def replicate_instance(name: str, params: BaseModel, seed: int, replicate: int,
 def instance_fingerprint(scene: Scene) -> str:
     """A short hash of what makes an instance: model geometry and evaluation starts."""
     h = hashlib.sha256()
-    for array in (scene.model.geom_pos, scene.model.geom_size, scene.model.site_pos, scene.starts,
-                  scene.pool_starts):
+    for array in (
+        scene.model.geom_pos,
+        scene.model.geom_size,
+        scene.model.site_pos,
+        scene.starts,
+        scene.pool_starts,
+    ):
         h.update(np.ascontiguousarray(array, dtype=float).tobytes())
     return h.hexdigest()[:16]
 
 
 def instance_meta(scenario: Scenario, replicate: int, scene: Scene) -> dict:
     """The metadata a demo set of this instance carries (and is checked against on load)."""
-    return {"scene": scenario.domain.name, "seed": scenario.seed, "replicate": replicate,
-            "instance": instance_fingerprint(scene)}
+    return {
+        "scene": scenario.domain.name,
+        "seed": scenario.seed,
+        "replicate": replicate,
+        "instance": instance_fingerprint(scene),
+    }
 
 
-def generate_demos(scenario: Scenario, count: int, replicate: int = 0,
-                   on_demo: Callable[[int, ExpertDemo], None] | None = None,
-                   stop: Callable[[], bool] | None = None) -> DemoSet:
+def generate_demos(
+    scenario: Scenario,
+    count: int,
+    replicate: int = 0,
+    on_demo: Callable[[int, ExpertDemo], None] | None = None,
+    stop: Callable[[], bool] | None = None,
+) -> DemoSet:
     """``count`` demos of replicate ``replicate``'s instance, in the run's passive order.
 
     Starts cycle through a shuffled order of the demonstration pool; a demo is poor with probability
@@ -78,8 +94,9 @@ def generate_demos(scenario: Scenario, count: int, replicate: int = 0,
     scene, weights = scene_instance(scenario, replicate)
     expert = EXPERTS[scenario.domain.name][1](scene, scenario.expert)
     demo_rng = np.random.default_rng(seed_sequence(scenario, replicate, "demos"))
-    order = passive_order(len(scene.pool_starts),
-                          np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
+    order = passive_order(
+        len(scene.pool_starts), np.random.default_rng(seed_sequence(scenario, replicate, "selection"))
+    )
     demos: list[ExpertDemo] = []
     starts: list[int] = []
     interrupted = False
@@ -94,16 +111,26 @@ def generate_demos(scenario: Scenario, count: int, replicate: int = 0,
     except KeyboardInterrupt:
         interrupted = True
     m = scene.model
-    meta = {**instance_meta(scenario, replicate, scene),
-            "scene_params": scenario.domain_params().model_dump(mode="json"),
-            "expert": scenario.expert.model_dump(mode="json"),
-            "noise_fraction": scenario.demos.noise_fraction,
-            "feature_names": list(scene.feature_names), "num_features": scene.num_features,
-            "nq": m.nq, "nv": m.nv, "nu": m.nu, "steps": scene.spline.num_steps,
-            "path_dims": 2, "timestep": m.opt.timestep,
-            "mjsuff_version": __version__, "mujoco_version": mujoco.__version__,
-            "candidates": [d.candidates for d in demos], "ik_failures": [d.ik_failures for d in demos],
-            "params": [d.params.tolist() for d in demos], "interrupted": interrupted}
+    meta = {
+        **instance_meta(scenario, replicate, scene),
+        "scene_params": scenario.domain_params().model_dump(mode="json"),
+        "expert": scenario.expert.model_dump(mode="json"),
+        "noise_fraction": scenario.demos.noise_fraction,
+        "feature_names": list(scene.feature_names),
+        "num_features": scene.num_features,
+        "nq": m.nq,
+        "nv": m.nv,
+        "nu": m.nu,
+        "steps": scene.spline.num_steps,
+        "path_dims": 2,
+        "timestep": m.opt.timestep,
+        "mjsuff_version": __version__,
+        "mujoco_version": mujoco.__version__,
+        "candidates": [d.candidates for d in demos],
+        "ik_failures": [d.ik_failures for d in demos],
+        "params": [d.params.tolist() for d in demos],
+        "interrupted": interrupted,
+    }
     arrays = _stack(demos, starts, scene)
     return DemoSet(arrays, meta, true_weights=weights, values=np.array([d.value for d in demos]))
 
@@ -115,10 +142,15 @@ def _stack(demos: list[ExpertDemo], starts: list[int], scene: Scene) -> dict[str
     def stack(name: str, shape: tuple[int, ...]) -> np.ndarray:
         return np.array([getattr(d, name) for d in demos], dtype=float).reshape(n, *shape)
 
-    return {"start_index": np.array(starts, dtype=np.int64).reshape(n),
-            "start_qpos": stack("start_qpos", (m.nq,)), "qpos": stack("qpos", (t, m.nq)),
-            "qvel": stack("qvel", (t, m.nv)), "controls": stack("controls", (t, m.nu)),
-            "features": stack("features", (scene.num_features,)),
-            "intended": stack("intended", (t, 2)), "executed": stack("executed", (t, 2)),
-            "tracking_error": stack("tracking_error", ()),
-            "poor": np.array([d.poor for d in demos], dtype=bool).reshape(n)}
+    return {
+        "start_index": np.array(starts, dtype=np.int64).reshape(n),
+        "start_qpos": stack("start_qpos", (m.nq,)),
+        "qpos": stack("qpos", (t, m.nq)),
+        "qvel": stack("qvel", (t, m.nv)),
+        "controls": stack("controls", (t, m.nu)),
+        "features": stack("features", (scene.num_features,)),
+        "intended": stack("intended", (t, 2)),
+        "executed": stack("executed", (t, 2)),
+        "tracking_error": stack("tracking_error", ()),
+        "poor": np.array([d.poor for d in demos], dtype=bool).reshape(n),
+    }

@@ -74,22 +74,32 @@ class PathTracker:
         settings: Sampling, limits and tolerance.
     """
 
-    def __init__(self, model: mujoco.MjModel, frame: str, frame_type: str,
-                 orientation_cost: float = 0.0, settings: IKSettings | None = None) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        frame: str,
+        frame_type: str,
+        orientation_cost: float = 0.0,
+        settings: IKSettings | None = None,
+    ) -> None:
         self.model = model
         self.settings = settings or IKSettings()
         self.frame, self.frame_type = frame, frame_type
         self.configuration = mink.Configuration(model)
-        self.frame_task = mink.FrameTask(frame, frame_type, position_cost=1.0,
-                                         orientation_cost=orientation_cost, lm_damping=1e-6)
+        self.frame_task = mink.FrameTask(
+            frame, frame_type, position_cost=1.0, orientation_cost=orientation_cost, lm_damping=1e-6
+        )
         self.posture_task = mink.PostureTask(model, cost=self.settings.posture_cost)
         names = [model.joint(j).name for j in range(model.njnt)]
         speed = self.settings.max_joint_speed
-        self.limits = [mink.ConfigurationLimit(model),
-                       mink.VelocityLimit(model, {name: speed for name in names})]
+        self.limits = [
+            mink.ConfigurationLimit(model),
+            mink.VelocityLimit(model, {name: speed for name in names}),
+        ]
 
-    def track(self, start_qpos: np.ndarray, positions: np.ndarray, dt: float,
-              rotations: np.ndarray | None = None) -> JointReference:
+    def track(
+        self, start_qpos: np.ndarray, positions: np.ndarray, dt: float, rotations: np.ndarray | None = None
+    ) -> JointReference:
         """Joint reference following ``positions`` ``(T, 3)`` (world, m), one per step of ``dt`` s.
 
         ``rotations`` ``(T, 4)`` (wxyz quaternions) are the frame's target orientations when the
@@ -105,22 +115,28 @@ class PathTracker:
         residual = np.empty(len(samples))
         previous = 0
         for i, step in enumerate(samples):
-            rotation = (mink.SO3(rotations[step]) if rotations is not None
-                        else cfg.get_transform_frame_to_world(self.frame, self.frame_type).rotation())
+            rotation = (
+                mink.SO3(rotations[step])
+                if rotations is not None
+                else cfg.get_transform_frame_to_world(self.frame, self.frame_type).rotation()
+            )
             self.frame_task.set_target(mink.SE3.from_rotation_and_translation(rotation, positions[step]))
             h = max(step - previous, 1) * dt / s.iterations
             try:
                 for _ in range(s.iterations):
-                    v = mink.solve_ik(cfg, [self.frame_task, self.posture_task], h, "daqp",
-                                      limits=self.limits)
+                    v = mink.solve_ik(
+                        cfg, [self.frame_task, self.posture_task], h, "daqp", limits=self.limits
+                    )
                     cfg.integrate_inplace(v, h)
             except mink.MinkError as err:
                 raise IKFailure(f"mink failed at step {step}: {err}") from err
             reached = cfg.get_transform_frame_to_world(self.frame, self.frame_type).translation()
             residual[i] = np.linalg.norm(reached - positions[step])
             if not np.isfinite(residual[i]) or residual[i] > s.tolerance:
-                raise IKFailure(f"target at step {step} missed by {residual[i] * 1000:.1f} mm "
-                                f"(tolerance {s.tolerance * 1000:.1f} mm)")
+                raise IKFailure(
+                    f"target at step {step} missed by {residual[i] * 1000:.1f} mm "
+                    f"(tolerance {s.tolerance * 1000:.1f} mm)"
+                )
             solved[i] = cfg.q
             previous = step
         spline = CubicSpline(samples * dt, solved, axis=0, bc_type="clamped")

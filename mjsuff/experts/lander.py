@@ -47,13 +47,19 @@ class LanderExpert(Expert):
     """Demonstrates on a :class:`Lander`; path parameters are
     ``(fall, brake, touchdown_speed, lateral)``."""
 
-    def __init__(self, scene: Lander, settings: ExpertSettings | None = None,
-                 ik: IKSettings | None = None) -> None:
+    def __init__(
+        self, scene: Lander, settings: ExpertSettings | None = None, ik: IKSettings | None = None
+    ) -> None:
         super().__init__(scene, settings)
         self.scene: Lander = scene
         m = scene.model
-        self.tracker = PathTracker(m, "craft", "body", orientation_cost=1.0,
-                                   settings=ik or IKSettings(stride=10, iterations=3, tolerance=0.01))
+        self.tracker = PathTracker(
+            m,
+            "craft",
+            "body",
+            orientation_cost=1.0,
+            settings=ik or IKSettings(stride=10, iterations=3, tolerance=0.01),
+        )
         self.mass = float(m.body_subtreemass[m.body("craft").id])
         self.gravity = -float(m.opt.gravity[2])
         main = m.actuator("main").id
@@ -69,16 +75,14 @@ class LanderExpert(Expert):
         axes = np.meshgrid(FALL, BRAKE, TOUCHDOWN_SPEEDS, LATERAL, indexing="ij")
         return np.stack(axes, -1).reshape(-1, 4)
 
-    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator,
-                      count: int) -> np.ndarray:
+    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator, count: int) -> np.ndarray:
         """Any fall, brake and touchdown speed of the family's ranges; at least half of the way
         to the pad sideways."""
         params = rng.uniform(LOW, HIGH, size=(count, 4))
         params[:, 3] = rng.uniform(0.5, HIGH[3], count)
         return params
 
-    def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int,
-                scale: float) -> np.ndarray:
+    def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int, scale: float) -> np.ndarray:
         return np.clip(params + rng.standard_normal((count, 4)) * STEP * scale, LOW, HIGH)
 
     def intended_path(self, start_qpos: np.ndarray, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -88,8 +92,9 @@ class LanderExpert(Expert):
         steps, dt = self.scene.spline.num_steps, self.scene.model.opt.timestep
         t = np.arange(steps + 1) * dt
         x0, z0, pitch0 = start_qpos
-        drop, downward, arrival = fall_and_brake(t, z0 - REST_HEIGHT, fall * self.gravity,
-                                                 brake * self.brake_margin, speed)
+        drop, downward, arrival = fall_and_brake(
+            t, z0 - REST_HEIGHT, fall * self.gravity, brake * self.brake_margin, speed
+        )
         # Vertical thrust per unit mass, a_z + g, along the descent (0 once landed).
         lift = np.where(t < arrival, self.gravity - downward, 0.0)
         # tan θ = A cos(π F), F the share of the lift impulse so far: sideways speed is zero again
@@ -109,22 +114,29 @@ class LanderExpert(Expert):
         quats = np.column_stack([np.cos(pitch / 2), np.zeros_like(x), np.sin(pitch / 2), np.zeros_like(x)])
         return positions, quats
 
-    def control(self, qpos: np.ndarray, qvel: np.ndarray, touched: np.ndarray,
-                q_ref: np.ndarray, v_ref: np.ndarray, a_ref: np.ndarray) -> np.ndarray:
+    def control(
+        self,
+        qpos: np.ndarray,
+        qvel: np.ndarray,
+        touched: np.ndarray,
+        q_ref: np.ndarray,
+        v_ref: np.ndarray,
+        a_ref: np.ndarray,
+    ) -> np.ndarray:
         """Climb-rate and pitch set-points ``(C, 2)`` for all candidates, from their states and
         references ``(C, 3)`` at this step: a PD law on position gives the force wanted, its
         component along the body axis the thrust (through the climb-rate loop), its direction
         the pitch."""
-        force = self.mass * (a_ref[:, :2] + KP * (q_ref[:, :2] - qpos[:, :2])
-                             + KD * (v_ref[:, :2] - qvel[:, :2]))
+        force = self.mass * (
+            a_ref[:, :2] + KP * (q_ref[:, :2] - qpos[:, :2]) + KD * (v_ref[:, :2] - qvel[:, :2])
+        )
         force[:, 1] += self.mass * self.gravity
         pitch = qpos[:, 2]
-        pitch_target = np.where(force[:, 1] > 0,
-                                np.clip(np.arctan2(force[:, 0], force[:, 1]), -MAX_PITCH, MAX_PITCH),
-                                q_ref[:, 2])
+        pitch_target = np.where(
+            force[:, 1] > 0, np.clip(np.arctan2(force[:, 0], force[:, 1]), -MAX_PITCH, MAX_PITCH), q_ref[:, 2]
+        )
         pitch_target = np.where(touched, 0.0, pitch_target)
-        thrust = np.clip(force[:, 0] * np.sin(pitch) + force[:, 1] * np.cos(pitch), 0.0,
-                         self.max_thrust)
+        thrust = np.clip(force[:, 0] * np.sin(pitch) + force[:, 1] * np.cos(pitch), 0.0, self.max_thrust)
         # The set-point that makes the climb-rate loop give that thrust now; after touchdown the
         # lowest set-point, which cuts the engine.
         axial = qvel[:, 0] * np.sin(pitch) + qvel[:, 1] * np.cos(pitch)
@@ -158,8 +170,9 @@ class LanderExpert(Expert):
         steps = self.scene.spline.num_steps
         controls = np.empty((len(kept), steps, m.nu))
         touched = np.zeros(len(kept), dtype=bool)
-        q_ref, v_ref, a_ref = (np.stack([getattr(r, name) for r in references])
-                               for name in ("qpos", "qvel", "qacc"))
+        q_ref, v_ref, a_ref = (
+            np.stack([getattr(r, name) for r in references]) for name in ("qpos", "qvel", "qacc")
+        )
         for t in range(steps):
             qpos = np.array([d.qpos for d in datas])
             qvel = np.array([d.qvel for d in datas])
@@ -177,5 +190,4 @@ class LanderExpert(Expert):
         intended = np.array(paths)
         executed = self.task_path(rollouts.qpos)
         error = np.linalg.norm(executed - intended, axis=2).max(axis=1)
-        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error,
-                             knots), failures
+        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error, knots), failures

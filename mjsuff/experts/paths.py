@@ -17,8 +17,9 @@ def quadratic_bezier(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, s: np.ndarr
     return (1 - s) ** 2 * p0 + 2 * (1 - s) * s * p1 + s**2 * p2
 
 
-def fall_and_brake(t: np.ndarray, height: float, fall: float, brake: float,
-                   touchdown_speed: float) -> tuple[np.ndarray, np.ndarray, float]:
+def fall_and_brake(
+    t: np.ndarray, height: float, fall: float, brake: float, touchdown_speed: float
+) -> tuple[np.ndarray, np.ndarray, float]:
     """A vertical descent from rest over ``height`` (m): accelerate down at ``fall`` (m/s²), then
     brake at ``brake`` (m/s²) to arrive at ``touchdown_speed`` (m/s); at rest on arrival after.
 

@@ -32,8 +32,9 @@ STEP = np.array([0.06, 0.3, 0.25])
 class ReacherExpert(Expert):
     """Demonstrates on a :class:`LavaReacher`; path parameters are ``(offset, duration, reach)``."""
 
-    def __init__(self, scene: LavaReacher, settings: ExpertSettings | None = None,
-                 ik: IKSettings | None = None) -> None:
+    def __init__(
+        self, scene: LavaReacher, settings: ExpertSettings | None = None, ik: IKSettings | None = None
+    ) -> None:
         super().__init__(scene, settings)
         self.scene: LavaReacher = scene
         self.tracker = PathTracker(scene.model, "fingertip", "site", settings=ik)
@@ -49,14 +50,17 @@ class ReacherExpert(Expert):
         grid = np.stack(np.meshgrid(OFFSETS, DURATIONS, [1.0], indexing="ij"), -1).reshape(-1, 3)
         return np.vstack([grid, [0.0, 1.0, 0.0]])
 
-    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator,
-                      count: int) -> np.ndarray:
+    def random_params(self, start_qpos: np.ndarray, rng: np.random.Generator, count: int) -> np.ndarray:
         """Any offset of the grid's range, any duration from 0.5 s to the horizon, to the goal."""
-        return np.column_stack([rng.uniform(OFFSETS[0], OFFSETS[-1], count),
-                                rng.uniform(DURATIONS[0], self.horizon, count), np.ones(count)])
+        return np.column_stack(
+            [
+                rng.uniform(OFFSETS[0], OFFSETS[-1], count),
+                rng.uniform(DURATIONS[0], self.horizon, count),
+                np.ones(count),
+            ]
+        )
 
-    def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int,
-                scale: float) -> np.ndarray:
+    def perturb(self, params: np.ndarray, rng: np.random.Generator, count: int, scale: float) -> np.ndarray:
         out = params + rng.standard_normal((count, 3)) * STEP * scale
         out[:, 1] = np.clip(out[:, 1], 0.3, self.horizon)
         out[:, 2] = np.clip(out[:, 2], 0.0, 1.0)
@@ -107,5 +111,4 @@ class ReacherExpert(Expert):
         intended = np.array(paths)[:, :, :2]
         executed = self.task_path(rollouts.qpos)  # after each step, aligned with the intended path
         error = np.linalg.norm(executed - intended, axis=2).max(axis=1)
-        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error,
-                             knots), failures
+        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error, knots), failures

@@ -37,16 +37,22 @@ class RecordedDemos:
         for i in np.flatnonzero(a["start_index"] == start):
             if int(i) not in self._used:
                 self._used.add(int(i))
-                return Demo(start=start, poor=bool(a["poor"][i]),
-                            data={name: a[name][i] for name in DEMO_ARRAYS})
-        raise DemoFileError(f"{self.path}: no unused demo from start {start} (the file has "
-                            f"{len(self.demo_set)} demos; generate more with mjsuff demos --count)")
+                return Demo(
+                    start=start, poor=bool(a["poor"][i]), data={name: a[name][i] for name in DEMO_ARRAYS}
+                )
+        raise DemoFileError(
+            f"{self.path}: no unused demo from start {start} (the file has "
+            f"{len(self.demo_set)} demos; generate more with mjsuff demos --count)"
+        )
 
 
 def _demo_settings(params: dict, expert: dict, noise: float) -> dict:
     """What shapes the demos besides the instance (planning budgets do not)."""
-    return {"scene_params": {k: v for k, v in params.items() if k != "planning"},
-            "expert": expert, "noise_fraction": noise}
+    return {
+        "scene_params": {k: v for k, v in params.items() if k != "planning"},
+        "expert": expert,
+        "noise_fraction": noise,
+    }
 
 
 def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int, RecordedDemos]:
@@ -61,40 +67,53 @@ def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int
             selects demos actively (a saved set can only follow the passive order).
     """
     if paths and scenario.demos.selection != "passive":
-        raise DemoFileError(f"{paths[0]}: saved demos follow the passive order; the scenario has "
-                            f"demos.selection = {scenario.demos.selection!r}")
-    wanted = _demo_settings(scenario.domain_params().model_dump(mode="json"),
-                            scenario.expert.model_dump(mode="json"), scenario.demos.noise_fraction)
+        raise DemoFileError(
+            f"{paths[0]}: saved demos follow the passive order; the scenario has "
+            f"demos.selection = {scenario.demos.selection!r}"
+        )
+    wanted = _demo_settings(
+        scenario.domain_params().model_dump(mode="json"),
+        scenario.expert.model_dump(mode="json"),
+        scenario.demos.noise_fraction,
+    )
     served: dict[int, RecordedDemos] = {}
     for path in paths:
         demo_set = load_demo_set(path)
         replicate = demo_set.meta.get("replicate")
         if type(replicate) is not int or not 0 <= replicate < scenario.replicates:
-            raise DemoFileError(f"{path}: field 'meta.replicate': expected a replicate in "
-                                f"0..{scenario.replicates - 1}, got {replicate!r}")
+            raise DemoFileError(
+                f"{path}: field 'meta.replicate': expected a replicate in "
+                f"0..{scenario.replicates - 1}, got {replicate!r}"
+            )
         if replicate in served:
-            raise DemoFileError(f"{path}: replicate {replicate} already has demos from "
-                                f"{served[replicate].path}")
+            raise DemoFileError(
+                f"{path}: replicate {replicate} already has demos from {served[replicate].path}"
+            )
         scene, _ = scene_instance(scenario, replicate)
         meta = demo_set.meta
         checks = {**instance_meta(scenario, replicate, scene), **wanted}
-        got = {**meta, **_demo_settings(meta.get("scene_params") or {}, meta.get("expert"),
-                                        meta.get("noise_fraction"))}
+        got = {
+            **meta,
+            **_demo_settings(meta.get("scene_params") or {}, meta.get("expert"), meta.get("noise_fraction")),
+        }
         for key, value in checks.items():
             if got.get(key) != value:
-                raise DemoFileError(f"{path}: field 'meta.{key}': expected {value!r}, got "
-                                    f"{got.get(key)!r} (demos of another scene, instance or "
-                                    "settings)")
+                raise DemoFileError(
+                    f"{path}: field 'meta.{key}': expected {value!r}, got "
+                    f"{got.get(key)!r} (demos of another scene, instance or "
+                    "settings)"
+                )
         pool = len(scene.pool_starts)
-        order = passive_order(pool, np.random.default_rng(
-            seed_sequence(scenario, replicate, "selection")))
+        order = passive_order(pool, np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
         needed = np.bincount(order[: min(scenario.demos.max_demos or pool, pool)], minlength=pool)
         have = np.bincount(demo_set.arrays["start_index"], minlength=pool)[:pool]
         short = np.flatnonzero(have < needed)
         if short.size:
-            raise DemoFileError(f"{path}: the run asks for {int(needed.sum())} demos in passive "
-                                f"order but the file has none left from start {int(short[0])} "
-                                f"({len(demo_set)} demos); generate them with mjsuff demos "
-                                f"--count {int(needed.sum())}")
+            raise DemoFileError(
+                f"{path}: the run asks for {int(needed.sum())} demos in passive "
+                f"order but the file has none left from start {int(short[0])} "
+                f"({len(demo_set)} demos); generate them with mjsuff demos "
+                f"--count {int(needed.sum())}"
+            )
         served[replicate] = RecordedDemos(demo_set, path)
     return served

@@ -38,7 +38,10 @@ class GridPosterior:
 
 
 def grid_posterior(
-    log_likelihood: LogLikelihood, num_points: int = 40_000, batch: int = 5_000, k: int = 3,
+    log_likelihood: LogLikelihood,
+    num_points: int = 40_000,
+    batch: int = 5_000,
+    k: int = 3,
     rng: np.random.Generator | None = None,
 ) -> GridPosterior:
     """Evaluate ``log_likelihood`` on ``num_points`` sphere points (module docstring; ``rng``

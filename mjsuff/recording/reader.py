@@ -36,8 +36,7 @@ class Recording:
                 continue
             batch = chunk.to_record_batch()
             if component in batch.schema.names and timeline in batch.schema.names:
-                parts.append(pa.table({timeline: batch.column(timeline),
-                                       component: batch.column(component)}))
+                parts.append(pa.table({timeline: batch.column(timeline), component: batch.column(component)}))
         if not parts:
             raise KeyError(f"{self.path}: no {component} of {entity} on timeline {timeline!r}")
         return pa.concat_tables(parts).sort_by(timeline)

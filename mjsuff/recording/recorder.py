@@ -29,8 +29,9 @@ from mjsuff.recording.views import view_for
 LOW, HIGH = np.array([40, 60, 200]), np.array([250, 220, 40])
 
 
-def blueprint(scenario: Scenario | None = None, replicate: int = 0,
-              eye: tuple[np.ndarray, np.ndarray] | None = None) -> rrb.Blueprint:
+def blueprint(
+    scenario: Scenario | None = None, replicate: int = 0, eye: tuple[np.ndarray, np.ndarray] | None = None
+) -> rrb.Blueprint:
     """The layout a recording opens on: the scene and the decisions log; the posterior; the
     bounds against the truth, one tab per rule kind (of ``scenario``'s rules); the scenario.
     ``eye`` (position, look target) places the scene camera."""
@@ -39,25 +40,44 @@ def blueprint(scenario: Scenario | None = None, replicate: int = 0,
     params = {"nevd": [], "piob": [], "patience": [], "validation": []}
     if scenario is not None:
         rules = scenario.rules
-        params = {"nevd": rules.nevd_thresholds, "piob": rules.piob_thresholds,
-                  "patience": rules.patience, "validation": rules.validation_intervals}
-    series = [rrb.TimeSeriesView(name=f"{kind} rule", origin=f"{root}/rules",
-                                 contents=[f"$origin/{kind}_{p:g}/**" for p in params[kind]]
-                                 or [f"$origin/{kind}_*"])
-              for kind in kinds if params[kind] or scenario is None]
+        params = {
+            "nevd": rules.nevd_thresholds,
+            "piob": rules.piob_thresholds,
+            "patience": rules.patience,
+            "validation": rules.validation_intervals,
+        }
+    series = [
+        rrb.TimeSeriesView(
+            name=f"{kind} rule",
+            origin=f"{root}/rules",
+            contents=[f"$origin/{kind}_{p:g}/**" for p in params[kind]] or [f"$origin/{kind}_*"],
+        )
+        for kind in kinds
+        if params[kind] or scenario is None
+    ]
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(rrb.Spatial3DView(
-                name="scene", origin=root, contents=[f"{root}/scene/**", f"{root}/grid/**"],
-                eye_controls=None if eye is None else rrb.EyeControls3D(
-                    position=eye[0], look_target=eye[1], eye_up=[0, 0, 1])),
-                         rrb.TextLogView(name="decisions", origin=f"{root}/log"),
-                         row_shares=[3, 1]),
-            rrb.Vertical(rrb.Spatial3DView(name="posterior", origin=f"{root}/posterior"),
-                         rrb.Tabs(*series, name="bounds and truth"),
-                         rrb.TextDocumentView(name="scenario", origin="/run/scenario")),
-            column_shares=[3, 2]),
-        collapse_panels=True)
+            rrb.Vertical(
+                rrb.Spatial3DView(
+                    name="scene",
+                    origin=root,
+                    contents=[f"{root}/scene/**", f"{root}/grid/**"],
+                    eye_controls=None
+                    if eye is None
+                    else rrb.EyeControls3D(position=eye[0], look_target=eye[1], eye_up=[0, 0, 1]),
+                ),
+                rrb.TextLogView(name="decisions", origin=f"{root}/log"),
+                row_shares=[3, 1],
+            ),
+            rrb.Vertical(
+                rrb.Spatial3DView(name="posterior", origin=f"{root}/posterior"),
+                rrb.Tabs(*series, name="bounds and truth"),
+                rrb.TextDocumentView(name="scenario", origin="/run/scenario"),
+            ),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=True,
+    )
 
 
 def nevd_colours(nevd: np.ndarray) -> np.ndarray:
@@ -85,8 +105,9 @@ def rule_path(row: dict[str, Any]) -> str:
 class ReplicateRecorder:
     """Records one replicate (an observer of ``run_replicate``)."""
 
-    def __init__(self, recording: rr.RecordingStream, replicate: int,
-                 scenario: Scenario | None = None) -> None:
+    def __init__(
+        self, recording: rr.RecordingStream, replicate: int, scenario: Scenario | None = None
+    ) -> None:
         self.recording = recording
         self.replicate = replicate
         self.scenario = scenario
@@ -102,28 +123,41 @@ class ReplicateRecorder:
         eye = self.view.eye()
         if self.replicate == 0 and eye is not None:
             # The default layout frames the first replicate's instance.
-            self.recording.send_blueprint(blueprint(self.scenario, 0, eye), make_active=True,
-                                          make_default=True)
+            self.recording.send_blueprint(
+                blueprint(self.scenario, 0, eye), make_active=True, make_default=True
+            )
         if domain.num_features == 3:
-            self.recording.log(f"{self.root}/posterior/unit_sphere",
-                               rr.Ellipsoids3D(half_sizes=[[1, 1, 1]], colors=[[180, 180, 180]]),
-                               static=True)
+            self.recording.log(
+                f"{self.root}/posterior/unit_sphere",
+                rr.Ellipsoids3D(half_sizes=[[1, 1, 1]], colors=[[180, 180, 180]]),
+                static=True,
+            )
 
-    def step(self, step: int, demo: Demo, samples: np.ndarray, nevd: np.ndarray,
-             map_weights: np.ndarray, map_policy: Policy, rows: list[dict[str, Any]]) -> None:
+    def step(
+        self,
+        step: int,
+        demo: Demo,
+        samples: np.ndarray,
+        nevd: np.ndarray,
+        map_weights: np.ndarray,
+        map_policy: Policy,
+        rows: list[dict[str, Any]],
+    ) -> None:
         rec, root = self.recording, self.root
         rec.set_time("demo", sequence=step)
         points, (w_map, w_true) = project(samples, map_weights, self.domain.true_weights)
-        rec.log(f"{root}/posterior/samples", rr.Points3D(points, colors=nevd_colours(nevd),
-                                                         radii=0.01))
-        rec.log(f"{root}/posterior/w_map", rr.Points3D([w_map], colors=[[20, 170, 60]], radii=0.04,
-                                                       labels=["w_MAP"]))
-        rec.log(f"{root}/posterior/w_true", rr.Points3D([w_true], colors=[[230, 30, 30]],
-                                                        radii=0.04, labels=["w*"]))
+        rec.log(f"{root}/posterior/samples", rr.Points3D(points, colors=nevd_colours(nevd), radii=0.01))
+        rec.log(
+            f"{root}/posterior/w_map",
+            rr.Points3D([w_map], colors=[[20, 170, 60]], radii=0.04, labels=["w_MAP"]),
+        )
+        rec.log(
+            f"{root}/posterior/w_true",
+            rr.Points3D([w_true], colors=[[230, 30, 30]], radii=0.04, labels=["w*"]),
+        )
         self.view.log_step(step, demo, map_policy)
         poor = " (a poor demo)" if demo.poor else ""
-        rec.log(f"{root}/log", rr.TextLog(f"demo {step} from start {demo.start}{poor}",
-                                          level="INFO"))
+        rec.log(f"{root}/log", rr.TextLog(f"demo {step} from start {demo.start}{poor}", level="INFO"))
         for row in rows:
             path = f"{root}/rules/{rule_path(row)}"
             if np.isfinite(row["bound"]):
@@ -134,9 +168,14 @@ class ReplicateRecorder:
             if row["decision"] and rule_path(row) not in self._stopped:
                 self._stopped.add(rule_path(row))
                 bound = f"bound {row['bound']:.3f}, " if np.isfinite(row["bound"]) else ""
-                rec.log(f"{root}/log", rr.TextLog(
-                    f"STOP {row['rule']} {row['param']:g} at demo {step}: {bound}"
-                    f"true {row['true_value']:.3f}", level="WARN"))
+                rec.log(
+                    f"{root}/log",
+                    rr.TextLog(
+                        f"STOP {row['rule']} {row['param']:g} at demo {step}: {bound}"
+                        f"true {row['true_value']:.3f}",
+                        level="WARN",
+                    ),
+                )
 
 
 class RunRecorder:
@@ -148,14 +187,17 @@ class RunRecorder:
     def __init__(self, path: Path, scenario: Scenario, default_layout: bool = True) -> None:
         self.path = Path(path)
         self.scenario = scenario
-        self.recording = rr.RecordingStream(application_id="mjsuff",
-                                            recording_id=f"{scenario.name}-seed{scenario.seed}")
+        self.recording = rr.RecordingStream(
+            application_id="mjsuff", recording_id=f"{scenario.name}-seed{scenario.seed}"
+        )
         self.recording.set_log_time_enabled(False)
         # Parts of one run merged later carry the default layout once (replicate 0's part).
-        self.recording.save(str(self.path),
-                            default_blueprint=blueprint(scenario) if default_layout else None)
-        self.recording.log("run/scenario", rr.TextDocument(
-            f"```toml\n{scenario.to_toml()}```", media_type=rr.MediaType.MARKDOWN), static=True)
+        self.recording.save(str(self.path), default_blueprint=blueprint(scenario) if default_layout else None)
+        self.recording.log(
+            "run/scenario",
+            rr.TextDocument(f"```toml\n{scenario.to_toml()}```", media_type=rr.MediaType.MARKDOWN),
+            static=True,
+        )
 
     def replicate(self, replicate: int) -> ReplicateRecorder:
         return ReplicateRecorder(self.recording, replicate, self.scenario)

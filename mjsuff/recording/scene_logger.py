@@ -40,16 +40,21 @@ def _rgb(rgba: np.ndarray) -> list[int]:
     return [round(255 * float(c)) for c in np.clip(rgba, 0.0, 1.0)]
 
 
-def _shape(model: mujoco.MjModel, kind: int, size: np.ndarray, rgba: np.ndarray,
-           mesh: int = -1) -> rr.AsComponents | None:
+def _shape(
+    model: mujoco.MjModel, kind: int, size: np.ndarray, rgba: np.ndarray, mesh: int = -1
+) -> rr.AsComponents | None:
     """The Rerun archetype of one geom or site, in its own frame (None for unsupported kinds)."""
     g = mujoco.mjtGeom
     color = [_rgb(rgba)]
     if kind == g.mjGEOM_PLANE:
         hx = size[0] if size[0] > 0 else INFINITE_PLANE
         hy = size[1] if size[1] > 0 else INFINITE_PLANE
-        return rr.Boxes3D(half_sizes=[[hx, hy, PLANE_HALF_THICKNESS]],
-                          centers=[[0, 0, -PLANE_HALF_THICKNESS]], colors=color, fill_mode="solid")
+        return rr.Boxes3D(
+            half_sizes=[[hx, hy, PLANE_HALF_THICKNESS]],
+            centers=[[0, 0, -PLANE_HALF_THICKNESS]],
+            colors=color,
+            fill_mode="solid",
+        )
     if kind == g.mjGEOM_BOX:
         return rr.Boxes3D(half_sizes=[size[:3]], colors=color, fill_mode="solid")
     if kind == g.mjGEOM_SPHERE:
@@ -57,15 +62,19 @@ def _shape(model: mujoco.MjModel, kind: int, size: np.ndarray, rgba: np.ndarray,
     if kind == g.mjGEOM_ELLIPSOID:
         return rr.Ellipsoids3D(half_sizes=[size[:3]], colors=color, fill_mode="solid")
     if kind == g.mjGEOM_CAPSULE:
-        return rr.Capsules3D(lengths=[2 * size[1]], radii=[size[0]],
-                             translations=[[0, 0, -size[1]]], colors=color)
+        return rr.Capsules3D(
+            lengths=[2 * size[1]], radii=[size[0]], translations=[[0, 0, -size[1]]], colors=color
+        )
     if kind == g.mjGEOM_CYLINDER:
         return rr.Cylinders3D(lengths=[2 * size[1]], radii=[size[0]], colors=color)
     if kind == g.mjGEOM_MESH and mesh >= 0:
         v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
         f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
-        return rr.Mesh3D(vertex_positions=model.mesh_vert[v0:v0 + nv],
-                         triangle_indices=model.mesh_face[f0:f0 + nf], albedo_factor=color[0])
+        return rr.Mesh3D(
+            vertex_positions=model.mesh_vert[v0 : v0 + nv],
+            triangle_indices=model.mesh_face[f0 : f0 + nf],
+            albedo_factor=color[0],
+        )
     return None
 
 
@@ -83,27 +92,29 @@ class SceneLogger:
         self.recording = recording
         self.root = root.rstrip("/")
         self._data = mujoco.MjData(model)
-        self.body_paths = [f"{self.root}/bodies/{_name(model, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}"
-                           for b in range(model.nbody)]
+        self.body_paths = [
+            f"{self.root}/bodies/{_name(model, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}"
+            for b in range(model.nbody)
+        ]
 
     def log_geometry(self) -> None:
         """Static shapes of every geom and site, posed in their bodies' frames."""
         m, rec = self.model, self.recording
-        for kind, count, prefix, obj in (("geom", m.ngeom, "geom_", mujoco.mjtObj.mjOBJ_GEOM),
-                                         ("site", m.nsite, "site_", mujoco.mjtObj.mjOBJ_SITE)):
+        for kind, count, prefix, obj in (
+            ("geom", m.ngeom, "geom_", mujoco.mjtObj.mjOBJ_GEOM),
+            ("site", m.nsite, "site_", mujoco.mjtObj.mjOBJ_SITE),
+        ):
             for i in range(count):
                 if kind == "geom":
                     body, pos, quat = m.geom_bodyid[i], m.geom_pos[i], m.geom_quat[i]
-                    shape = _shape(m, m.geom_type[i], m.geom_size[i], m.geom_rgba[i],
-                                   m.geom_dataid[i])
+                    shape = _shape(m, m.geom_type[i], m.geom_size[i], m.geom_rgba[i], m.geom_dataid[i])
                 else:
                     body, pos, quat = m.site_bodyid[i], m.site_pos[i], m.site_quat[i]
                     shape = _shape(m, m.site_type[i], m.site_size[i], m.site_rgba[i])
                 if shape is None:
                     continue
                 path = f"{self.body_paths[body]}/{prefix}{_name(m, obj, i, '')}"
-                rec.log(path, rr.Transform3D(translation=pos, quaternion=wxyz_to_xyzw(quat)),
-                        static=True)
+                rec.log(path, rr.Transform3D(translation=pos, quaternion=wxyz_to_xyzw(quat)), static=True)
                 rec.log(path, shape, static=True)
 
     def body_poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -123,7 +134,8 @@ class SceneLogger:
         """Body poses for joint positions ``(T, nq)`` at the ``T`` times of ``indexes``."""
         pos, quat = self.body_poses(qpos)
         for b in range(1, self.model.nbody):  # the world body never moves
-            self.recording.send_columns(self.body_paths[b], indexes=indexes,
-                                        columns=rr.Transform3D.columns(
-                                            translation=pos[:, b],
-                                            quaternion=wxyz_to_xyzw(quat[:, b])))
+            self.recording.send_columns(
+                self.body_paths[b],
+                indexes=indexes,
+                columns=rr.Transform3D.columns(translation=pos[:, b], quaternion=wxyz_to_xyzw(quat[:, b])),
+            )

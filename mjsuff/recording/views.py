@@ -13,9 +13,21 @@ from mjsuff.domain import Demo, Domain, Policy
 from mjsuff.recording.scene_logger import SceneLogger
 
 #: Colours of up to 10 one-hot features (RGB), e.g. gridworld terrain, driving lanes.
-FEATURE_COLOURS = np.array([[70, 130, 180], [240, 200, 80], [120, 180, 90], [200, 80, 80],
-                            [150, 110, 200], [90, 200, 200], [230, 140, 60], [160, 160, 160],
-                            [100, 60, 40], [250, 120, 200]], dtype=np.uint8)
+FEATURE_COLOURS = np.array(
+    [
+        [70, 130, 180],
+        [240, 200, 80],
+        [120, 180, 90],
+        [200, 80, 80],
+        [150, 110, 200],
+        [90, 200, 200],
+        [230, 140, 60],
+        [160, 160, 160],
+        [100, 60, 40],
+        [250, 120, 200],
+    ],
+    dtype=np.uint8,
+)
 DEMO_COLOUR = [30, 90, 255]
 POOR_DEMO_COLOUR = [255, 60, 60]
 POLICY_COLOUR = [20, 170, 60]
@@ -75,19 +87,26 @@ class SceneView(DomainView):
     def log_step(self, step: int, demo: Demo, policy: Policy) -> None:
         rec = self.recording
         colour = POOR_DEMO_COLOUR if demo.poor else DEMO_COLOUR
-        rec.log(f"{self.root}/scene/demos/{step}",
-                rr.LineStrips3D([self._lift(np.asarray(demo.data["executed"]))], radii=0.004,
-                                colors=[colour]))
+        rec.log(
+            f"{self.root}/scene/demos/{step}",
+            rr.LineStrips3D([self._lift(np.asarray(demo.data["executed"]))], radii=0.004, colors=[colour]),
+        )
         rollouts, _ = self.scene.simulate(self.scene.starts, policy)
-        rec.log(f"{self.root}/scene/pi_map",
-                rr.LineStrips3D(self._lift(self.scene.path(rollouts)), radii=0.002,
-                                colors=[POLICY_COLOUR]))
+        rec.log(
+            f"{self.root}/scene/pi_map",
+            rr.LineStrips3D(self._lift(self.scene.path(rollouts)), radii=0.002, colors=[POLICY_COLOUR]),
+        )
         # The demo's executed motion, played back on sim_time: demo n occupies
         # [(n - 1) · horizon, n · horizon).
         qpos = np.asarray(demo.data["qpos"])
         times = (step - 1) * self.horizon + np.arange(len(qpos)) * self.scene.model.opt.timestep
-        self.logger.log_motion(qpos, [rr.TimeColumn("sim_time", duration=times),
-                                      rr.TimeColumn("demo", sequence=np.full(len(qpos), step))])
+        self.logger.log_motion(
+            qpos,
+            [
+                rr.TimeColumn("sim_time", duration=times),
+                rr.TimeColumn("demo", sequence=np.full(len(qpos), step)),
+            ],
+        )
 
 
 class TabularView(DomainView):
@@ -97,9 +116,16 @@ class TabularView(DomainView):
         layout = self.domain.layout
         feats = self.domain.mdp.features
         colours = FEATURE_COLOURS[np.argmax(feats, axis=1) % len(FEATURE_COLOURS)]
-        self.recording.log(f"{self.root}/grid/cells", rr.Boxes3D(
-            centers=self._xy(layout), half_sizes=[[0.48, 0.48, 0.01]] * len(layout),
-            colors=colours, fill_mode="solid"), static=True)
+        self.recording.log(
+            f"{self.root}/grid/cells",
+            rr.Boxes3D(
+                centers=self._xy(layout),
+                half_sizes=[[0.48, 0.48, 0.01]] * len(layout),
+                colors=colours,
+                fill_mode="solid",
+            ),
+            static=True,
+        )
 
     def eye(self) -> tuple[np.ndarray, np.ndarray]:
         xy = self._xy(self.domain.layout)
@@ -124,13 +150,21 @@ class TabularView(DomainView):
         live = ~self.domain.mdp.terminal
         states = np.flatnonzero(live)
         vectors = 0.4 * moves[states, np.asarray(policy)[states]]
-        self.recording.log(f"{self.root}/grid/pi_map", rr.Arrows3D(
-            origins=xy[states] + [0, 0, 0.05], vectors=vectors, colors=[POLICY_COLOUR]))
+        self.recording.log(
+            f"{self.root}/grid/pi_map",
+            rr.Arrows3D(origins=xy[states] + [0, 0, 0.05], vectors=vectors, colors=[POLICY_COLOUR]),
+        )
         if demo.action >= 0:
             colour = POOR_DEMO_COLOUR if demo.poor else DEMO_COLOUR
-            self.recording.log(f"{self.root}/grid/demos/{step}", rr.Arrows3D(
-                origins=[xy[demo.start] + [0, 0, 0.1]],
-                vectors=[0.45 * moves[demo.start, demo.action]], colors=[colour], radii=0.05))
+            self.recording.log(
+                f"{self.root}/grid/demos/{step}",
+                rr.Arrows3D(
+                    origins=[xy[demo.start] + [0, 0, 0.1]],
+                    vectors=[0.45 * moves[demo.start, demo.action]],
+                    colors=[colour],
+                    radii=0.05,
+                ),
+            )
 
 
 def view_for(domain: Domain, recording: rr.RecordingStream, root: str) -> DomainView:

@@ -28,9 +28,17 @@ SHADES = {"patience": "Reds", "validation": "Greens"}
 NAMES = {"nevd": "nEVD bound (ours)", "patience": "Convergence", "validation": "Validation set"}
 BOOTSTRAP = 200
 
-plt.rcParams.update({"font.size": 10, "axes.spines.top": False, "axes.spines.right": False,
-                     "axes.grid": True, "grid.alpha": 0.3, "legend.frameon": False,
-                     "savefig.dpi": 150})
+plt.rcParams.update(
+    {
+        "font.size": 10,
+        "axes.spines.top": False,
+        "axes.spines.right": False,
+        "axes.grid": True,
+        "grid.alpha": 0.3,
+        "legend.frameon": False,
+        "savefig.dpi": 150,
+    }
+)
 
 
 def replicate_outcomes(group: pd.DataFrame, eps: float) -> tuple[np.ndarray, np.ndarray]:
@@ -43,6 +51,7 @@ def replicate_outcomes(group: pd.DataFrame, eps: float) -> tuple[np.ndarray, np.
 
 def f1_with_se(codes: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
     """F1 (Eq. 10) and its bootstrap standard error over replicates."""
+
     def f1(c: np.ndarray) -> float:
         tp, fp, fn = (c == 0).sum(), (c == 1).sum(), (c == 2).sum()
         den = tp + 0.5 * (fp + fn)
@@ -63,9 +72,18 @@ def rule_curves(cell: ReportCell, seed: int = 0) -> pd.DataFrame:
             codes, needed = replicate_outcomes(group, eps)
             f1, se = f1_with_se(codes, rng)
             sem = needed.std(ddof=1) / math.sqrt(needed.size) if needed.size > 1 else math.nan
-            rows.append({"rule": rule, "param": float(param), "epsilon": eps, "f1": f1,
-                         "f1_se": se, "demos": needed.mean(), "demos_sem": sem,
-                         "replicates": needed.size})
+            rows.append(
+                {
+                    "rule": rule,
+                    "param": float(param),
+                    "epsilon": eps,
+                    "f1": f1,
+                    "f1_se": se,
+                    "demos": needed.mean(),
+                    "demos_sem": sem,
+                    "replicates": needed.size,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -88,8 +106,7 @@ def f1_and_demos(cell: ReportCell, path: Path) -> Path:
         if rule == "nevd":
             sub = sub.sort_values("epsilon")
             _band(ax_f1, sub["epsilon"], sub["f1"], sub["f1_se"], COLOURS[rule], NAMES[rule])
-            _band(ax_demos, sub["epsilon"], sub["demos"], sub["demos_sem"], COLOURS[rule],
-                  NAMES[rule])
+            _band(ax_demos, sub["epsilon"], sub["demos"], sub["demos_sem"], COLOURS[rule], NAMES[rule])
             continue
         params = sorted(sub["param"].unique())
         shades = plt.get_cmap(SHADES[rule])(np.linspace(0.45, 0.9, len(params)))
@@ -98,8 +115,7 @@ def f1_and_demos(cell: ReportCell, path: Path) -> Path:
             label = f"{NAMES[rule]} ({'p' if rule == 'patience' else 'i'} = {param:g})"
             style = styles[i % len(styles)]
             _band(ax_f1, line["epsilon"], line["f1"], line["f1_se"], shades[i], label, style)
-            _band(ax_demos, line["epsilon"], line["demos"], line["demos_sem"], shades[i],
-                  label, style)
+            _band(ax_demos, line["epsilon"], line["demos"], line["demos_sem"], shades[i], label, style)
     ax_f1.set(xlabel="nEVD threshold ε", ylabel="F1", ylim=(-0.02, 1.05), title="F1 score")
     ax_demos.set(xlabel="nEVD threshold ε", ylabel="demos", title="Demonstrations needed")
     ax_demos.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
@@ -114,9 +130,17 @@ def bound_curve(cell: ReportCell) -> pd.DataFrame:
     """Per demo count: mean and SEM of the nEVD bound and of π_MAP's true nEVD."""
     nevd = cell.steps[cell.steps["rule"] == "nevd"]
     nevd = nevd[nevd["param"] == nevd["param"].min()]
-    out = nevd.groupby("step").agg(bound=("bound", "mean"), bound_sd=("bound", "std"),
-                                   truth=("true_nevd", "mean"), truth_sd=("true_nevd", "std"),
-                                   n=("bound", "size")).reset_index()
+    out = (
+        nevd.groupby("step")
+        .agg(
+            bound=("bound", "mean"),
+            bound_sd=("bound", "std"),
+            truth=("true_nevd", "mean"),
+            truth_sd=("true_nevd", "std"),
+            n=("bound", "size"),
+        )
+        .reset_index()
+    )
     out["bound_sem"] = out["bound_sd"] / np.sqrt(out["n"])
     out["truth_sem"] = out["truth_sd"] / np.sqrt(out["n"])
     return out
@@ -151,16 +175,20 @@ def noise_table(cells: list[ReportCell]) -> pd.DataFrame:
     noise series at the first β)."""
     rows = []
     noisy = [c for c in cells if NOISE_KEY in c.labels]
-    others = ({k: v for k, v in noisy[0].labels.items() if k != NOISE_KEY} if noisy else {})
+    others = {k: v for k, v in noisy[0].labels.items() if k != NOISE_KEY} if noisy else {}
     for cell in noisy:
         if {k: v for k, v in cell.labels.items() if k != NOISE_KEY} != others:
             continue
         nevd = cell.steps[cell.steps["rule"] == "nevd"]
         for eps, group in nevd.groupby("param"):
             m = measure_group(group, False, float(eps))
-            rows.append({"noise": float(cell.labels[NOISE_KEY]), "epsilon": float(eps),
-                         **{k: m[k] for k in ("accuracy", "tpr", "fpr", "f1", "demos_needed",
-                                              "replicates")}})
+            rows.append(
+                {
+                    "noise": float(cell.labels[NOISE_KEY]),
+                    "epsilon": float(eps),
+                    **{k: m[k] for k in ("accuracy", "tpr", "fpr", "f1", "demos_needed", "replicates")},
+                }
+            )
     return pd.DataFrame(rows).sort_values(["epsilon", "noise"]) if rows else pd.DataFrame()
 
 
@@ -172,17 +200,32 @@ def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.2), sharex=True)
     cmap = plt.get_cmap("viridis")
     epsilons = sorted(table["epsilon"].unique())
-    for ax, measure, title in zip(axes, ("accuracy", "tpr", "fpr"),
-                                  ("Bound accuracy", "True-positive rate", "False-positive rate"),
-                                  strict=True):
+    for ax, measure, title in zip(
+        axes,
+        ("accuracy", "tpr", "fpr"),
+        ("Bound accuracy", "True-positive rate", "False-positive rate"),
+        strict=True,
+    ):
         for i, eps in enumerate(epsilons):
             line = table[table["epsilon"] == eps]
-            ax.plot(line["noise"], line[measure], marker="o", markersize=3,
-                    color=cmap(i / max(1, len(epsilons) - 1)), label=f"ε = {eps:g}")
+            ax.plot(
+                line["noise"],
+                line[measure],
+                marker="o",
+                markersize=3,
+                color=cmap(i / max(1, len(epsilons) - 1)),
+                label=f"ε = {eps:g}",
+            )
         ax.set(xlabel="share of poor demos", title=title, ylim=(-0.02, 1.05))
     axes[-1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    axes[-1].annotate("no point: no truly insufficient step", (0.02, 0.95), fontsize=7,
-                      xycoords="axes fraction", color="grey", va="top")
+    axes[-1].annotate(
+        "no point: no truly insufficient step",
+        (0.02, 0.95),
+        fontsize=7,
+        xycoords="axes fraction",
+        color="grey",
+        va="top",
+    )
     fig.tight_layout()
     fig.savefig(path, bbox_inches="tight")
     plt.close(fig)

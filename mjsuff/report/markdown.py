@@ -42,40 +42,60 @@ def rule_table(cell: ReportCell) -> str:
     if curves.empty:
         return "_no nEVD rule or baseline in this run_\n"
     eps = sorted(curves["epsilon"].unique())
-    lines = ["| rule | " + " | ".join(f"ε = {e:g}" for e in eps) + " |",
-             "| --- |" + " --- |" * len(eps)]
+    lines = ["| rule | " + " | ".join(f"ε = {e:g}" for e in eps) + " |", "| --- |" + " --- |" * len(eps)]
     nevd = curves[curves["rule"] == "nevd"].set_index("epsilon")
-    lines.append(f"| {NAMES['nevd']} | " + " | ".join(
-        f"{_num(nevd.loc[e, 'f1'])} / {_num(nevd.loc[e, 'demos'], 1)}" if e in nevd.index else "–"
-        for e in eps) + " |")
+    lines.append(
+        f"| {NAMES['nevd']} | "
+        + " | ".join(
+            f"{_num(nevd.loc[e, 'f1'])} / {_num(nevd.loc[e, 'demos'], 1)}" if e in nevd.index else "–"
+            for e in eps
+        )
+        + " |"
+    )
     for (rule, param), sub in curves[curves["rule"] != "nevd"].groupby(["rule", "param"], sort=False):
         sub = sub.set_index("epsilon")
-        lines.append(f"| {NAMES[rule]} ({param:g}) | " + " | ".join(
-            f"{_num(sub.loc[e, 'f1'])} / {_num(sub.loc[e, 'demos'], 1)}" for e in eps) + " |")
+        lines.append(
+            f"| {NAMES[rule]} ({param:g}) | "
+            + " | ".join(f"{_num(sub.loc[e, 'f1'])} / {_num(sub.loc[e, 'demos'], 1)}" for e in eps)
+            + " |"
+        )
     return "\n".join(lines) + "\n"
 
 
 def accuracy_table(cell: ReportCell) -> str:
     """The nEVD rule per ε: F1, bound accuracy and error at the evaluated step, demos, TPR, FPR."""
     nevd = cell.steps[cell.steps["rule"] == "nevd"]
-    lines = ["| ε | F1 | accuracy | bound error | demos needed | TPR | FPR |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        "| ε | F1 | accuracy | bound error | demos needed | TPR | FPR |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for eps, group in nevd.groupby("param"):
         m = measure_group(group, False, float(eps))
-        lines.append(f"| {eps:g} | {_num(m['f1'])} | {_num(m['accuracy'])} | "
-                     f"{_num(m['bound_error'], 3)} | {_num(m['demos_needed'], 1)} ± "
-                     f"{_num(m['demos_needed_sem'], 1)} | {_num(m['tpr'])} | {_num(m['fpr'])} |")
+        lines.append(
+            f"| {eps:g} | {_num(m['f1'])} | {_num(m['accuracy'])} | "
+            f"{_num(m['bound_error'], 3)} | {_num(m['demos_needed'], 1)} ± "
+            f"{_num(m['demos_needed_sem'], 1)} | {_num(m['tpr'])} | {_num(m['fpr'])} |"
+        )
     curve = bound_curve(cell)
-    every = (cell.steps[cell.steps["rule"] == "nevd"])
+    every = cell.steps[cell.steps["rule"] == "nevd"]
     every = every[every["param"] == every["param"].min()]
     overall = float((every["bound"] >= every["true_nevd"]).mean()) if len(every) else math.nan
     lines.append("")
-    lines.append(f"Bound ≥ true nEVD over every replicate and demo count: {_num(overall)} "
-                 f"({len(every)} checks; by demo count: "
-                 + ", ".join(f"{int(s)}: {_num(float(a))}" for s, a in zip(
-                     curve["step"], every.groupby("step").apply(
-                         lambda g: (g["bound"] >= g["true_nevd"]).mean(), include_groups=False),
-                     strict=True)) + ").")
+    lines.append(
+        f"Bound ≥ true nEVD over every replicate and demo count: {_num(overall)} "
+        f"({len(every)} checks; by demo count: "
+        + ", ".join(
+            f"{int(s)}: {_num(float(a))}"
+            for s, a in zip(
+                curve["step"],
+                every.groupby("step").apply(
+                    lambda g: (g["bound"] >= g["true_nevd"]).mean(), include_groups=False
+                ),
+                strict=True,
+            )
+        )
+        + ")."
+    )
     return "\n".join(lines) + "\n"
 
 
@@ -105,14 +125,18 @@ def sampler_table(cell: ReportCell) -> str:
     steps = cell.steps
     if "converged" not in steps:
         return "(no sampler diagnostics: a run from before mjsuff recorded them)\n"
-    lines = ["| demos | mean R̂ | max R̂ | mean ESS | min ESS | converged | bound ESS | MCMC steps |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| demos | mean R̂ | max R̂ | mean ESS | min ESS | converged | bound ESS | MCMC steps |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     per_step = steps.drop_duplicates(["replicate", "step"])
     for step, g in per_step.groupby("step", sort=True):
         d = sampler_diagnostics(g)
-        lines.append(f"| {step} | {d['mean_rhat']:.3f} | {d['max_rhat']:.3f} | {d['mean_ess']:.0f} | "
-                     f"{d['min_ess']:.0f} | {d['converged']:.2f} | {d['mean_bound_ess']:.0f} | "
-                     f"{d['mean_mcmc_steps']:.0f} |")
+        lines.append(
+            f"| {step} | {d['mean_rhat']:.3f} | {d['max_rhat']:.3f} | {d['mean_ess']:.0f} | "
+            f"{d['min_ess']:.0f} | {d['converged']:.2f} | {d['mean_bound_ess']:.0f} | "
+            f"{d['mean_mcmc_steps']:.0f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -122,14 +146,17 @@ def comparison_text(comparison: RuleComparison | None, what: str) -> str:
         return f"{what}: not enough variation between rules for a test.\n"
     medians = ", ".join(f"{NAMES[r]} {m:.3g}" for r, m in comparison.medians().items())
     counts = ", ".join(f"{NAMES[r]} n = {v.size}" for r, v in comparison.groups.items())
-    lines = [f"{what}: Kruskal-Wallis H = {comparison.h:.1f}, p {_p(comparison.p)} "
-             f"({counts}); medians: {medians}.", "",
-             "Dunn post-hoc, Bonferroni-adjusted p:", "",
-             "| | " + " | ".join(NAMES[c] for c in comparison.dunn.columns) + " |",
-             "| --- |" + " --- |" * len(comparison.dunn.columns)]
+    lines = [
+        f"{what}: Kruskal-Wallis H = {comparison.h:.1f}, p {_p(comparison.p)} "
+        f"({counts}); medians: {medians}.",
+        "",
+        "Dunn post-hoc, Bonferroni-adjusted p:",
+        "",
+        "| | " + " | ".join(NAMES[c] for c in comparison.dunn.columns) + " |",
+        "| --- |" + " --- |" * len(comparison.dunn.columns),
+    ]
     for r, row in comparison.dunn.iterrows():
-        lines.append(f"| {NAMES[r]} | " + " | ".join(
-            _p(float(v)).removeprefix("= ") for v in row) + " |")
+        lines.append(f"| {NAMES[r]} | " + " | ".join(_p(float(v)).removeprefix("= ") for v in row) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -142,33 +169,50 @@ def write_report(directories: list[Path], out: Path) -> Path:
         (out / ".write-probe").unlink()
     except OSError as exc:
         raise ReportError(f"{out}: --out is not writable ({exc.strerror or exc})") from None
-    parts = ["# mjsuff report", "",
-             "Sources: " + ", ".join(f"`{d}`" for d in directories), ""]
+    parts = ["# mjsuff report", "", "Sources: " + ", ".join(f"`{d}`" for d in directories), ""]
     bound_fig = bound_vs_demos(cells, out / "bound_vs_demos.png")
     for i, cell in enumerate(cells):
         replicates = cell.steps["replicate"].nunique()
         figure = f1_and_demos(cell, out / f"f1_and_demos_{i:02d}.png")
         quality_obs, demo_obs = observations(cell.steps, cell.thresholds)
-        parts += [f"## {cell.title} ({replicates} replicates)", "",
-                  f"![F1 and demos needed vs. ε]({figure.name})", "",
-                  "F1 / demos needed per rule and threshold (baselines scored at every ε):", "",
-                  rule_table(cell), "The nEVD rule:", "", accuracy_table(cell),
-                  "The bound rules scored as the paper's code scores them (every demo step a "
-                  "decision, no stop):", "", paper_table(cell),
-                  "Tests between rules: one observation per replicate and rule (a rule's "
-                  "parameters averaged within the replicate).", "",
-                  comparison_text(compare_rules(quality_obs, "correct"), H1),
-                  comparison_text(compare_rules(demo_obs, "demos"), H2),
-                  "The posteriors (R̂: rank-normalized split-R̂ of the final window; ESS: the "
-                  "smaller of bulk and tail of the kept draws; bound ESS: the effective size the "
-                  "nEVD bound's index used; a posterior that did not converge is never used to "
-                  "stop):", "", sampler_table(cell)]
+        parts += [
+            f"## {cell.title} ({replicates} replicates)",
+            "",
+            f"![F1 and demos needed vs. ε]({figure.name})",
+            "",
+            "F1 / demos needed per rule and threshold (baselines scored at every ε):",
+            "",
+            rule_table(cell),
+            "The nEVD rule:",
+            "",
+            accuracy_table(cell),
+            "The bound rules scored as the paper's code scores them (every demo step a decision, no stop):",
+            "",
+            paper_table(cell),
+            "Tests between rules: one observation per replicate and rule (a rule's "
+            "parameters averaged within the replicate).",
+            "",
+            comparison_text(compare_rules(quality_obs, "correct"), H1),
+            comparison_text(compare_rules(demo_obs, "demos"), H2),
+            "The posteriors (R̂: rank-normalized split-R̂ of the final window; ESS: the "
+            "smaller of bulk and tail of the kept draws; bound ESS: the effective size the "
+            "nEVD bound's index used; a posterior that did not converge is never used to "
+            "stop):",
+            "",
+            sampler_table(cell),
+        ]
     parts += ["## nEVD bound and true nEVD vs. demos", "", f"![bound vs demos]({bound_fig.name})", ""]
     noise_fig = noise_ablation(cells, out / "noise_ablation.png")
     if noise_fig is not None:
         table = noise_table(cells)
-        parts += ["## Noise ablation (nEVD rule)", "", f"![noise ablation]({noise_fig.name})", "",
-                  _frame_markdown(table), ""]
+        parts += [
+            "## Noise ablation (nEVD rule)",
+            "",
+            f"![noise ablation]({noise_fig.name})",
+            "",
+            _frame_markdown(table),
+            "",
+        ]
     path = out / "report.md"
     atomic_write_text(path, "\n".join(parts))
     return path
@@ -178,6 +222,5 @@ def _frame_markdown(frame: pd.DataFrame) -> str:
     cols = list(frame.columns)
     lines = ["| " + " | ".join(cols) + " |", "|" + " --- |" * len(cols)]
     for _, row in frame.iterrows():
-        lines.append("| " + " | ".join(_num(v) if isinstance(v, float) else str(v)
-                                       for v in row) + " |")
+        lines.append("| " + " | ".join(_num(v) if isinstance(v, float) else str(v) for v in row) + " |")
     return "\n".join(lines)

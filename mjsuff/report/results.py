@@ -38,8 +38,9 @@ class ReportCell:
         its name, and left out when the domains differ)."""
         labels = self.labels
         if "domain.name" in labels:
-            labels = {k: v for k, v in labels.items()
-                      if not k.startswith("domain.params") and "tolerance" not in k}
+            labels = {
+                k: v for k, v in labels.items() if not k.startswith("domain.params") and "tolerance" not in k
+            }
         shown = [f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if k != "domain.name"]
         return ", ".join([self.scenario, *shown[:3]] + (["…"] if len(shown) > 3 else []))
 
@@ -57,14 +58,26 @@ def _config(directory: Path) -> dict[str, Any]:
 def _steps(directory: Path) -> pd.DataFrame:
     path = directory / "steps.parquet"
     if not path.is_file():
-        raise ReportError(f"{directory}: no steps.parquet (no replicate has finished; "
-                          "mjsuff run --resume continues a run)")
+        raise ReportError(
+            f"{directory}: no steps.parquet (no replicate has finished; mjsuff run --resume continues a run)"
+        )
     try:
         steps = pd.read_parquet(path)
     except Exception as exc:  # pyarrow raises several types for damaged files
         raise ReportError(f"{path}: cannot be read ({exc})") from None
-    needed = {"replicate", "rule", "param", "step", "bound", "true_value", "true_nevd",
-              "true_piob", "decision", "pool_size", "policy_optimality"}
+    needed = {
+        "replicate",
+        "rule",
+        "param",
+        "step",
+        "bound",
+        "true_value",
+        "true_nevd",
+        "true_piob",
+        "decision",
+        "pool_size",
+        "policy_optimality",
+    }
     if missing := needed - set(steps.columns):
         raise ReportError(f"{path}: missing columns {sorted(missing)}")
     return steps
@@ -85,8 +98,11 @@ def _sweep_cells(top: Path) -> list[ReportCell]:
         if not (directory / "steps.parquet").is_file():
             continue  # a cell with no finished replicate (an interrupted sweep)
         config = _config(directory)
-        cells.append(ReportCell(labels, _thresholds(config), _steps(directory),
-                                config.get("name", top.name), directory))
+        cells.append(
+            ReportCell(
+                labels, _thresholds(config), _steps(directory), config.get("name", top.name), directory
+            )
+        )
     if not cells:
         raise ReportError(f"{top}: no sweep cell has a finished replicate yet")
     return cells
@@ -103,9 +119,11 @@ def load_cells(directories: list[Path]) -> list[ReportCell]:
         if (d / "sweep.json").is_file():
             raise ReportError(f"{d}: a sweep; report it on its own (mjsuff report {d})")
     configs = [_config(d) for d in directories]
-    flat = [flat_keys({k: v for k, v in c.items() if k not in ("seed", "replicates", "name")})
-            for c in configs]
+    flat = [
+        flat_keys({k: v for k, v in c.items() if k not in ("seed", "replicates", "name")}) for c in configs
+    ]
     differing = sorted({k for f in flat for k in f if any(g.get(k) != f.get(k) for g in flat)})
-    return [ReportCell({k: f.get(k) for k in differing}, _thresholds(c), _steps(d),
-                       c.get("name", d.name), d)
-            for d, c, f in zip(directories, configs, flat, strict=True)]
+    return [
+        ReportCell({k: f.get(k) for k in differing}, _thresholds(c), _steps(d), c.get("name", d.name), d)
+        for d, c, f in zip(directories, configs, flat, strict=True)
+    ]

@@ -84,6 +84,5 @@ def compare_rules(values: pd.DataFrame, column: str) -> RuleComparison | None:
     if len(groups) < 2 or np.ptp(pooled) == 0:
         return None
     h, p = stats.kruskal(*groups.values())
-    dunn = scikit_posthocs.posthoc_dunn(values, val_col=column, group_col="rule",
-                                        p_adjust="bonferroni")
+    dunn = scikit_posthocs.posthoc_dunn(values, val_col=column, group_col="rule", p_adjust="bonferroni")
     return RuleComparison(column, groups, float(h), float(p) if not math.isnan(p) else 1.0, dunn)

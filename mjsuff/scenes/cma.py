@@ -57,12 +57,16 @@ class BatchedCMAES:
         self.c_mu = min(1 - self.c_1, 2 * (me - 2 + 1 / me) / ((n + 2) ** 2 + me))
         self.d_s = 1 + 2 * max(0.0, np.sqrt((me - 1) / (n + 1)) - 1) + self.c_s
         self.chi_n = np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n**2))
-        scale_neg = min(1 + self.c_1 / self.c_mu, 1 + 2 * mu_eff_neg / (me + 2),
-                        (1 - self.c_1 - self.c_mu) / (n * self.c_mu))
+        scale_neg = min(
+            1 + self.c_1 / self.c_mu,
+            1 + 2 * mu_eff_neg / (me + 2),
+            (1 - self.c_1 - self.c_mu) / (n * self.c_mu),
+        )
         #: Recombination weights, best first: positive ones sum to 1, negative ones (active CMA)
         #: take covariance away from the worse half's directions.
-        self.weights = np.concatenate([positive / positive.sum(),
-                                       scale_neg * negative / np.abs(negative).sum()])
+        self.weights = np.concatenate(
+            [positive / positive.sum(), scale_neg * negative / np.abs(negative).sum()]
+        )
         self.mu = mu
         self.cov = np.broadcast_to(np.eye(n), (b, n, n)).copy()
         self.p_c = np.zeros((b, n))
@@ -93,20 +97,24 @@ class BatchedCMAES:
         values ``(B, λ)`` (larger is better; −inf for samples that could not be evaluated)."""
         n = self.dimension
         order = np.argsort(-values, axis=1, kind="stable")
-        y = (np.take_along_axis(samples, order[:, :, None], axis=1) - self.mean[:, None]) \
-            / self.sigma[:, None, None]
+        y = (np.take_along_axis(samples, order[:, :, None], axis=1) - self.mean[:, None]) / self.sigma[
+            :, None, None
+        ]
         w_pos = self.weights[: self.mu]
         y_w = np.einsum("m,bmi->bi", w_pos, y[:, : self.mu])
         self.mean = self.mean + self.sigma[:, None] * y_w
 
-        self.p_s = (1 - self.c_s) * self.p_s + np.sqrt(self.c_s * (2 - self.c_s) * self.mu_eff) \
-            * self._inv_sqrt(y_w[:, None])[:, 0]
+        self.p_s = (1 - self.c_s) * self.p_s + np.sqrt(
+            self.c_s * (2 - self.c_s) * self.mu_eff
+        ) * self._inv_sqrt(y_w[:, None])[:, 0]
         self.generation += 1
         norm_s = np.linalg.norm(self.p_s, axis=1)
-        h_sig = (norm_s / np.sqrt(1 - (1 - self.c_s) ** (2 * self.generation)) / self.chi_n
-                 < 1.4 + 2 / (n + 1)).astype(float)
-        self.p_c = (1 - self.c_c) * self.p_c + (h_sig * np.sqrt(self.c_c * (2 - self.c_c)
-                                                                 * self.mu_eff))[:, None] * y_w
+        h_sig = (
+            norm_s / np.sqrt(1 - (1 - self.c_s) ** (2 * self.generation)) / self.chi_n < 1.4 + 2 / (n + 1)
+        ).astype(float)
+        self.p_c = (1 - self.c_c) * self.p_c + (h_sig * np.sqrt(self.c_c * (2 - self.c_c) * self.mu_eff))[
+            :, None
+        ] * y_w
         # Negative weights act on directions normalized by their Mahalanobis length (tutorial
         # eq. 46), which keeps C positive definite.
         w = np.broadcast_to(self.weights, values.shape).copy()

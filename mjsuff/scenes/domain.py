@@ -138,10 +138,16 @@ class SceneDomain(Domain):
             value is within this share of ``V*(s) − V_rand(s)`` of the optimum.
     """
 
-    def __init__(self, scene: Scene, rng: np.random.Generator,
-                 planning: PlanningSettings | None = None, expert: Expert | None = None,
-                 unchanged_tolerance: float = 0.05,
-                 match_tolerance: float = 0.1, optimal_gap: float = 0.05) -> None:
+    def __init__(
+        self,
+        scene: Scene,
+        rng: np.random.Generator,
+        planning: PlanningSettings | None = None,
+        expert: Expert | None = None,
+        unchanged_tolerance: float = 0.05,
+        match_tolerance: float = 0.1,
+        optimal_gap: float = 0.05,
+    ) -> None:
         self.scene = scene
         self.expert = expert
         self.rng = rng
@@ -154,8 +160,9 @@ class SceneDomain(Domain):
         self.library = TrajectoryLibrary(s + p, k, scene.spline.shape)
         planning = planning or PlanningSettings()
         if planning.seed_directions < 1:
-            raise ValueError("planning.seed_directions: the random policy plans prior draws; "
-                             "at least 1 is needed")
+            raise ValueError(
+                "planning.seed_directions: the random policy plans prior draws; at least 1 is needed"
+            )
         self.planning = planning
         self.planner = SamplingPlanner(scene, planning.planner or scene.planner_config, self.library)
         self.refiner = SamplingPlanner(scene, planning.refine or scene.refine_config, self.library)
@@ -173,8 +180,10 @@ class SceneDomain(Domain):
             self.library.add(int(i), feats[i], knots[i])
         self._random_features = feats
         if expert is None:
-            raise ValueError("a SceneDomain needs its expert: the random policy is random paths "
-                             "of the demonstrator's family (build it with make_scene_domain)")
+            raise ValueError(
+                "a SceneDomain needs its expert: the random policy is random paths "
+                "of the demonstrator's family (build it with make_scene_domain)"
+            )
         for i in everywhere:  # the scene's own reward-agnostic primitives
             knots = scene.primitive_knots(scene.all_starts[i])
             if len(knots):
@@ -200,8 +209,10 @@ class SceneDomain(Domain):
                 if len(found) >= RANDOM_PATHS:
                     break
             if not found:
-                raise RuntimeError(f"no random path from evaluation start {i} could be executed "
-                                   f"in {RANDOM_PATH_ROUNDS * RANDOM_PATHS} tries")
+                raise RuntimeError(
+                    f"no random path from evaluation start {i} could be executed "
+                    f"in {RANDOM_PATH_ROUNDS * RANDOM_PATHS} tries"
+                )
             self._random_mu[i] = np.mean(found[:RANDOM_PATHS], axis=0)
         # Seed plans: prior draws planned from every start, warm-started from the library, so it
         # holds each mode's optimum before the first demo.
@@ -210,10 +221,12 @@ class SceneDomain(Domain):
         tiled = np.tile(directions, (s + p, 1))
         warm = self._library_warm(self.library, problems, tiled)
         seeds = SamplingPlanner(scene, planning.seed_planner or scene.seed_config, self.library).plan(
-            problems, tiled, rng, warm_knots=warm)
+            problems, tiled, rng, warm_knots=warm
+        )
         if not np.isfinite(seeds.features).all():
-            raise RuntimeError("a seed plan diverged in every rollout; the scene or its control "
-                               "range is broken")
+            raise RuntimeError(
+                "a seed plan diverged in every rollout; the scene or its control range is broken"
+            )
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
         # Fixed, instance-independent directions: they must not draw from the instance's stream.
         self._directions = sample_orthant(np.random.default_rng(0), CANDIDATE_DIRECTIONS, k)
@@ -270,16 +283,23 @@ class SceneDomain(Domain):
         self._polish(self.library, starts, weights, self.planning.polish_rounds)
         return self._library_warm(self.library, starts, weights)  # the plan, or better
 
-    def _polish(self, library: TrajectoryLibrary, starts: np.ndarray, weights: np.ndarray,
-                rounds: int, until_converged: bool = False) -> None:
+    def _polish(
+        self,
+        library: TrajectoryLibrary,
+        starts: np.ndarray,
+        weights: np.ndarray,
+        rounds: int,
+        until_converged: bool = False,
+    ) -> None:
         """``rounds`` rounds of the local quadratic model's proposals (``mjsuff.scenes.surrogate``)
         for problems ``(starts[j], weights[j])``, into ``library``; with ``until_converged``,
         fewer once two rounds in a row improve no problem's best value."""
         starts, weights = np.asarray(starts), np.asarray(weights)
 
         def best() -> np.ndarray:
-            return np.array([library.best(int(s), w[None])[0][0] for s, w in zip(starts, weights,
-                                                                                 strict=True)])
+            return np.array(
+                [library.best(int(s), w[None])[0][0] for s, w in zip(starts, weights, strict=True)]
+            )
 
         before, idle = (best() if until_converged else None), 0
         for _ in range(rounds):
@@ -307,8 +327,10 @@ class SceneDomain(Domain):
         if key not in self._planned_for:
             raise ValueError("pool_features: the policy was not planned by this domain")
         if key not in self._pool_plans:
-            self._pool_plans[key] = (np.full((len(self.pool), self.num_features), np.nan),
-                                     np.zeros(len(self.pool), dtype=bool))
+            self._pool_plans[key] = (
+                np.full((len(self.pool), self.num_features), np.nan),
+                np.zeros(len(self.pool), dtype=bool),
+            )
         features, planned = self._pool_plans[key]
         wanted = np.arange(len(self.pool)) if entries is None else np.asarray(entries, dtype=int)
         todo = np.unique(wanted[~planned[wanted]])
@@ -318,8 +340,13 @@ class SceneDomain(Domain):
             planned[todo] = True
         return features
 
-    def optimal_start_values(self, weights: np.ndarray, robot: np.ndarray | None = None,
-                             bound_index: BoundIndex | None = None, refine: bool = True) -> np.ndarray:
+    def optimal_start_values(
+        self,
+        weights: np.ndarray,
+        robot: np.ndarray | None = None,
+        bound_index: BoundIndex | None = None,
+        refine: bool = True,
+    ) -> np.ndarray:
         """``V*_w(s)`` ``(N, S)`` at the evaluation starts: the library's best, refined (module docs).
 
         Args:
@@ -341,8 +368,7 @@ class SceneDomain(Domain):
             self._polish(self.library, np.repeat(np.arange(s), len(focus)), np.tile(focus, (s, 1)), 1)
         return self._library_values(weights, range(s))
 
-    def _tail(self, weights: np.ndarray, robot: np.ndarray | None,
-              count: int | None = None) -> np.ndarray:
+    def _tail(self, weights: np.ndarray, robot: np.ndarray | None, count: int | None = None) -> np.ndarray:
         """Indices of the ``count`` samples (default: the upper ``tail_share``) with the largest
         nEVD against the robot's feature expectations ``robot`` by the library's values now (all
         samples without a robot)."""
@@ -359,8 +385,9 @@ class SceneDomain(Domain):
         v_opt = self._library_values(weights, range(len(self.scene.starts))) @ sw
         return normalized_evd(v_opt, weights @ (sw @ robot), weights @ (sw @ self._random_mu))
 
-    def _plan_decisive(self, weights: np.ndarray, robot: np.ndarray | None,
-                       bound_index: BoundIndex | None) -> None:
+    def _plan_decisive(
+        self, weights: np.ndarray, robot: np.ndarray | None, bound_index: BoundIndex | None
+    ) -> None:
         """Plan the ``plan_samples`` samples that can move the bound (:meth:`_plan_samples`).
 
         A planned sample's ``V*`` can only rise, and so its nEVD. The bound is the ``j``-th order
@@ -378,7 +405,7 @@ class SceneDomain(Domain):
             return
         nevd = self._nevd(weights, robot)
         rank = n - 1 - (bound_index(nevd) if bound_index is not None else n - 1)
-        self._plan_samples(weights[np.argsort(-nevd, kind="stable")[rank: rank + count]])
+        self._plan_samples(weights[np.argsort(-nevd, kind="stable")[rank : rank + count]])
 
     def _plan_samples(self, weights: np.ndarray) -> None:
         """Plan each of ``weights`` from every evaluation start with π's budget, warm-started
@@ -460,23 +487,27 @@ class SceneDomain(Domain):
             # planner's own step does not); the planner itself.
             wide = self.planning.seed_planner or self.scene.seed_config
             broad = self.planner.config.model_copy(
-                update={"cma_sigma": max(TRUTH_SIGMA, self.planner.config.cma_sigma)})
+                update={"cma_sigma": max(TRUTH_SIGMA, self.planner.config.cma_sigma)}
+            )
             # First the learner's own kind of search, for rewards around w* (as its π_MAP plans
             # for posterior modes near w* are): each lands in some basin, and w*'s searches then
             # start from the best of them all.
-            cloud = normalize(self.true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal(
-                (TRUTH_CLOUD, self.num_features)))
+            cloud = normalize(
+                self.true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal((TRUTH_CLOUD, self.num_features))
+            )
             problems, directions = np.repeat(starts, TRUTH_CLOUD), np.tile(cloud, (len(starts), 1))
             SamplingPlanner(self.scene, self.planner.config, library).plan(
-                problems, directions, rng, warm_knots=self._library_warm(library, problems,
-                                                                         directions))
+                problems, directions, rng, warm_knots=self._library_warm(library, problems, directions)
+            )
             for search in (wide, broad, self.planner.config):
                 SamplingPlanner(self.scene, search.stronger(scale), library).plan(
-                    starts, w, rng, warm_knots=self._library_warm(library, starts, w))
+                    starts, w, rng, warm_knots=self._library_warm(library, starts, w)
+                )
             self._polish(library, starts, w, TRUTH_POLISH_ROUNDS, until_converged=True)
             if self.expert is not None:
-                best = type(self.expert)(self.scene, self.expert.settings.model_copy(
-                    update={"rationality": None}))
+                best = type(self.expert)(
+                    self.scene, self.expert.settings.model_copy(update={"rationality": None})
+                )
                 for s in starts:
                     demo = best.demonstrate(self.scene.starts[s], self.true_weights, rng)
                     library.add_features(int(s), demo.features)
@@ -489,8 +520,10 @@ class SceneDomain(Domain):
         the warm starts of every search."""
         best = [int(library.best(int(s), w[j][None])[1][0]) for j, s in enumerate(starts)]
         if min(best) < 0:
-            raise RuntimeError(f"no valid trajectory from start {int(starts[best.index(-1)])} "
-                               "to warm-start from (every rollout diverged)")
+            raise RuntimeError(
+                f"no valid trajectory from start {int(starts[best.index(-1)])} "
+                "to warm-start from (every rollout diverged)"
+            )
         return np.stack([library.arrays(int(s))[1][j] for s, j in zip(starts, best, strict=True)])
 
     def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:
@@ -532,10 +565,11 @@ class SceneDomain(Domain):
         (``features``, ``qpos``, ``qvel``, ``controls``, ``intended``, ``executed``)."""
         if self.expert is None:
             raise RuntimeError("this SceneDomain has no expert; build it with make_scene_domain")
-        demo = self.expert.demonstrate(self.scene.pool_starts[start], self.true_weights, rng,
-                                       poor=poor)
-        data = {name: getattr(demo, name) for name in
-                ("features", "qpos", "qvel", "controls", "intended", "executed")}
+        demo = self.expert.demonstrate(self.scene.pool_starts[start], self.true_weights, rng, poor=poor)
+        data = {
+            name: getattr(demo, name)
+            for name in ("features", "qpos", "qvel", "controls", "intended", "executed")
+        }
         return Demo(start=start, poor=poor, data=data)
 
     def candidate_features(self, demo: Demo) -> np.ndarray:
@@ -547,8 +581,10 @@ class SceneDomain(Domain):
         key = np.int64(demo.start).tobytes() + phi.tobytes()
         if key not in self._candidates:
             if phi.shape != (self.num_features,) or not np.isfinite(phi).all():
-                raise ValueError(f"demo from pool start {demo.start}: features must be "
-                                 f"{self.num_features} finite numbers, got {phi}")
+                raise ValueError(
+                    f"demo from pool start {demo.start}: features must be "
+                    f"{self.num_features} finite numbers, got {phi}"
+                )
             s = int(self.pool[demo.start])
             if self.candidates == "family":
                 alternatives = self._family_features(s)
@@ -558,8 +594,9 @@ class SceneDomain(Domain):
             randoms = self._random_features[s]
             parts = [phi[None], alternatives, randoms[np.isfinite(randoms).all(axis=1)]]
             if "controls" in demo.data:
-                near = self._perturbed(s, np.asarray(demo.data["controls"], dtype=float),
-                                       np.random.default_rng(zlib.crc32(key)))
+                near = self._perturbed(
+                    s, np.asarray(demo.data["controls"], dtype=float), np.random.default_rng(zlib.crc32(key))
+                )
                 parts.append(near)
                 self.library.add_features(s, near)
             self._candidates[key] = np.concatenate(parts)
@@ -589,7 +626,8 @@ class SceneDomain(Domain):
         dropped."""
         batch = perturb_controls(self.scene.spline, controls, rng)
         _, features = self.scene.simulate_controls(
-            np.repeat(self.scene.all_starts[start][None], len(batch), axis=0), batch)
+            np.repeat(self.scene.all_starts[start][None], len(batch), axis=0), batch
+        )
         return features[np.isfinite(features).all(axis=1)]
 
     def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
@@ -602,12 +640,10 @@ class SceneDomain(Domain):
         return total
 
 
-def make_scene_domain(scene_type: type[Scene], params: BaseModel,
-                      rng: np.random.Generator) -> SceneDomain:
+def make_scene_domain(scene_type: type[Scene], params: BaseModel, rng: np.random.Generator) -> SceneDomain:
     """Build a scene instance and wrap it with its expert, drawing both from ``rng``."""
     from mjsuff.experts.generate import EXPERTS  # the experts import the scenes
 
     scene = scene_type(params, rng)
     expert_type = next(e for s, e in EXPERTS.values() if s is scene_type)
-    return SceneDomain(scene, rng, planning=getattr(params, "planning", None),
-                       expert=expert_type(scene))
+    return SceneDomain(scene, rng, planning=getattr(params, "planning", None), expert=expert_type(scene))

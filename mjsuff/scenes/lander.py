@@ -83,8 +83,9 @@ class LanderParams(BaseModel):
     @model_validator(mode="after")
     def _scene_defaults(self) -> LanderParams:
         # Unset budgets become the scene's tested ones, so a resolved scenario says what ran.
-        self.planning = self.planning.resolved(Lander.planner_config, Lander.refine_config,
-                                               Lander.seed_config)
+        self.planning = self.planning.resolved(
+            Lander.planner_config, Lander.refine_config, Lander.seed_config
+        )
         return self
 
 
@@ -99,11 +100,17 @@ class Lander(Scene):
     # picks the basin, CMA-ES polishes (tests/test_planner.py).
     planner_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=48, cma_sigma=0.1)
     refine_config = PlannerConfig(iterations=0, cma_population=16, cma_iterations=24, cma_sigma=0.1)
-    seed_config = PlannerConfig(population=48, elites=6, iterations=10, initial_std=0.5,
-                                cma_population=16, cma_iterations=32, cma_sigma=0.1)
+    seed_config = PlannerConfig(
+        population=48,
+        elites=6,
+        iterations=10,
+        initial_std=0.5,
+        cma_population=16,
+        cma_iterations=32,
+        cma_sigma=0.1,
+    )
 
-    def __init__(self, params: LanderParams, rng: np.random.Generator,
-                 threads: int | None = None) -> None:
+    def __init__(self, params: LanderParams, rng: np.random.Generator, threads: int | None = None) -> None:
         self.params = params
         self.model = load_model("lander.xml")
         self.pad_x = float(rng.uniform(-0.5, 0.5))
@@ -129,14 +136,21 @@ class Lander(Scene):
         self.pool_starts = self.sample_starts(rng, params.pool_starts, self.pool_sides)
         super().__init__(threads)
 
-    def sample_starts(self, rng: np.random.Generator, count: int,
-                      sides: np.ndarray | None = None) -> np.ndarray:
+    def sample_starts(
+        self, rng: np.random.Generator, count: int, sides: np.ndarray | None = None
+    ) -> np.ndarray:
         """``count`` starts at rest on ``sides`` (0 right, 1 left; unset: each at random):
         ``START_OFFSETS`` from the pad, ``START_HEIGHTS`` up, pitch ±0.2 rad."""
         sides = rng.integers(0, 2, count) if sides is None else np.asarray(sides)
         direction = np.where(sides == 0, 1.0, -1.0)
-        return np.stack([self.pad_x + direction * rng.uniform(*START_OFFSETS, count),
-                         rng.uniform(*START_HEIGHTS, count), rng.uniform(-0.2, 0.2, count)], axis=1)
+        return np.stack(
+            [
+                self.pad_x + direction * rng.uniform(*START_OFFSETS, count),
+                rng.uniform(*START_HEIGHTS, count),
+                rng.uniform(-0.2, 0.2, count),
+            ],
+            axis=1,
+        )
 
     def path(self, rollouts: Rollouts) -> np.ndarray:
         return rollouts.qpos[:, :, :2]

@@ -80,8 +80,9 @@ class LavaReacherParams(BaseModel):
     @model_validator(mode="after")
     def _scene_defaults(self) -> LavaReacherParams:
         # Unset budgets become the scene's tested ones, so a resolved scenario says what ran.
-        self.planning = self.planning.resolved(LavaReacher.planner_config, LavaReacher.refine_config,
-                                               LavaReacher.seed_config)
+        self.planning = self.planning.resolved(
+            LavaReacher.planner_config, LavaReacher.refine_config, LavaReacher.seed_config
+        )
         return self
 
 
@@ -95,9 +96,9 @@ def inverse_kinematics(tip: np.ndarray, tool_angle: np.ndarray, elbow: np.ndarra
     """Joint angles ``(..., 3)`` that put the fingertip at ``tip`` ``(..., 2)`` with the last link
     at ``tool_angle`` (rad, world frame) and the elbow on side ``elbow`` (±1); NaN where out of
     reach or out of the joint ranges."""
-    tip, tool_angle, elbow = np.broadcast_arrays(np.asarray(tip, float),
-                                                 np.asarray(tool_angle, float)[..., None],
-                                                 np.asarray(elbow, float)[..., None])
+    tip, tool_angle, elbow = np.broadcast_arrays(
+        np.asarray(tip, float), np.asarray(tool_angle, float)[..., None], np.asarray(elbow, float)[..., None]
+    )
     tool_angle, elbow = tool_angle[..., 0], elbow[..., 0]
     wrist = tip - LINK * np.stack([np.cos(tool_angle), np.sin(tool_angle)], axis=-1)
     c2 = ((wrist**2).sum(-1) - 2 * LINK**2) / (2 * LINK**2)
@@ -130,14 +131,13 @@ class LavaReacher(Scene):
     # plans need the global search: from a left start the way around the water is a narrow basin
     # that a local search from holding still or from a way through never reaches, so they are a wide
     # CEM (benchmarks/tail_vstar.py).
-    planner_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=40,
-                                   cma_sigma=0.05)
-    refine_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=24,
-                                  cma_sigma=0.05)
+    planner_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=40, cma_sigma=0.05)
+    refine_config = PlannerConfig(iterations=0, cma_population=24, cma_iterations=24, cma_sigma=0.05)
     seed_config = PlannerConfig(population=48, elites=6, iterations=10, initial_std=0.5)
 
-    def __init__(self, params: LavaReacherParams, rng: np.random.Generator,
-                 threads: int | None = None) -> None:
+    def __init__(
+        self, params: LavaReacherParams, rng: np.random.Generator, threads: int | None = None
+    ) -> None:
         self.params = params
         self.model = load_model("lava_reacher.xml")
         # The goal in front of the arm; a start region on each side, 1.5–2 rad away.
@@ -192,8 +192,9 @@ class LavaReacher(Scene):
         """Water disk radius (m)."""
         return float(self.hazard_radii[1])
 
-    def sample_starts(self, rng: np.random.Generator, count: int,
-                      sides: np.ndarray | None = None) -> np.ndarray:
+    def sample_starts(
+        self, rng: np.random.Generator, count: int, sides: np.ndarray | None = None
+    ) -> np.ndarray:
         """``count`` starts, on ``sides`` (0 right, 1 left; unset: each side at random): a
         fingertip in its side's region
         (radius 0.17–0.33 m, within ±0.5 rad of its centre direction), the posture by inverse
@@ -254,8 +255,10 @@ class LavaReacher(Scene):
         tip = self.path(rollouts)
         steps = horizon or tip.shape[1]
         distance = np.linalg.norm(tip - self.goal, axis=2) / DISTANCE_SCALE
-        hazards = [np.clip(r - np.linalg.norm(tip - c, axis=2), 0.0, None) / r / HAZARD_SCALE
-                   for c, r in zip(self.hazard_centres, self.hazard_radii, strict=True)]
+        hazards = [
+            np.clip(r - np.linalg.norm(tip - c, axis=2), 0.0, None) / r / HAZARD_SCALE
+            for c, r in zip(self.hazard_centres, self.hazard_radii, strict=True)
+        ]
         motion = (rollouts.qvel**2).sum(axis=2) / MOTION_SCALE
         return np.stack([distance, *hazards, motion], axis=2) / steps
 

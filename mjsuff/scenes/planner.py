@@ -36,32 +36,41 @@ class Plans:
 class SamplingPlanner:
     """Batched sampling-based trajectory optimization over a scene's spline knots."""
 
-    def __init__(self, scene: Scene, config: PlannerConfig,
-                 library: TrajectoryLibrary | None = None) -> None:
+    def __init__(self, scene: Scene, config: PlannerConfig, library: TrajectoryLibrary | None = None) -> None:
         self.scene = scene
         self.config = config
         self.library = library
 
-    def plan(self, starts: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
-             warm_knots: np.ndarray | None = None) -> Plans:
+    def plan(
+        self,
+        starts: np.ndarray,
+        weights: np.ndarray,
+        rng: np.random.Generator,
+        warm_knots: np.ndarray | None = None,
+    ) -> Plans:
         """Best trajectories for problems ``(start index, w)``: ``starts`` ``(B,)`` index the
         scene's ``all_starts``, ``weights`` is ``(B, k)``, ``warm_knots`` ``(B, K, nu)``."""
         starts = np.asarray(starts)
-        mean = (self.scene.initial_knots(self.scene.all_starts[starts])
-                if warm_knots is None else np.array(warm_knots, dtype=float))
+        mean = (
+            self.scene.initial_knots(self.scene.all_starts[starts])
+            if warm_knots is None
+            else np.array(warm_knots, dtype=float)
+        )
         best = _Best(mean.copy(), len(starts), self.scene.num_features)
         self._cem(starts, weights, rng, mean, best)
         if self.config.cma_iterations:
             self._cma(starts, weights, rng, best)
         return Plans(best.knots, best.features, best.values)
 
-    def _evaluate(self, starts: np.ndarray, weights: np.ndarray,
-                  samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _evaluate(
+        self, starts: np.ndarray, weights: np.ndarray, samples: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Simulate knots ``(B, P, K, nu)``; -> features ``(B, P, k)``, values ``(B, P)``
         (−inf for diverged rollouts). Every valid trajectory joins the library."""
         b, p = samples.shape[:2]
-        _, features = self.scene.simulate(np.repeat(self.scene.all_starts[starts], p, axis=0),
-                                          samples.reshape(b * p, *samples.shape[2:]))
+        _, features = self.scene.simulate(
+            np.repeat(self.scene.all_starts[starts], p, axis=0), samples.reshape(b * p, *samples.shape[2:])
+        )
         features = features.reshape(b, p, -1)
         values = np.einsum("bpk,bk->bp", features, weights)
         values = np.where(np.isfinite(values), values, -np.inf)
@@ -70,8 +79,9 @@ class SamplingPlanner:
                 self.library.add(int(s), features[j], samples[j])
         return features, values
 
-    def _cem(self, starts: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
-             mean: np.ndarray, best: _Best) -> None:
+    def _cem(
+        self, starts: np.ndarray, weights: np.ndarray, rng: np.random.Generator, mean: np.ndarray, best: _Best
+    ) -> None:
         cfg, spline = self.config, self.scene.spline
         b, p = len(starts), cfg.population
         span = spline.high - spline.low
@@ -88,8 +98,7 @@ class SamplingPlanner:
             std = cfg.smoothing * std + (1 - cfg.smoothing) * elite.std(axis=1)
             std = np.maximum(std, cfg.min_std * span)
 
-    def _cma(self, starts: np.ndarray, weights: np.ndarray, rng: np.random.Generator,
-             best: _Best) -> None:
+    def _cma(self, starts: np.ndarray, weights: np.ndarray, rng: np.random.Generator, best: _Best) -> None:
         cfg, spline = self.config, self.scene.spline
         b, shape = len(starts), spline.shape
         low, span = spline.low, spline.high - spline.low

@@ -17,45 +17,76 @@ class PlanningSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
     planner: PlannerConfig | None = Field(
-        None, description="π for a reward vector (π_MAP); unset = the scene's tested default")
+        None, description="π for a reward vector (π_MAP); unset = the scene's tested default"
+    )
     refine: PlannerConfig | None = Field(
-        None, description="one warm-started refinement of V* for a group of reward vectors; "
-                          "unset = the scene's tested default")
+        None,
+        description="one warm-started refinement of V* for a group of reward vectors; "
+        "unset = the scene's tested default",
+    )
     refine_groups: int = Field(16, ge=0, description="most weight groups refined per start and round")
     refine_rounds: int = Field(2, ge=0, description="refinement rounds per V* call")
     tail_share: float = Field(
-        0.15, gt=0.0, le=1.0,
+        0.15,
+        gt=0.0,
+        le=1.0,
         description="V*: the share of samples with the largest nEVD whose V* is refined (the "
-                    "upper tail decides the bound)")
+        "upper tail decides the bound)",
+    )
     plan_samples: int = Field(
-        0, ge=0, description="V*: this many samples that can move the bound (from its order "
-                             "statistic down, after the groups' refinement) planned one "
-                             "by one with π's budget from every evaluation start, warm-started "
-                             "from the library; 0: none")
+        0,
+        ge=0,
+        description="V*: this many samples that can move the bound (from its order "
+        "statistic down, after the groups' refinement) planned one "
+        "by one with π's budget from every evaluation start, warm-started "
+        "from the library; 0: none",
+    )
     polish_rounds: int = Field(
-        2, ge=0, description="V*: rounds of the local quadratic model's proposals for the nEVD "
-                             "tail's samples from every evaluation start, after refinement "
-                             "(mjsuff.scenes.surrogate)")
+        2,
+        ge=0,
+        description="V*: rounds of the local quadratic model's proposals for the nEVD "
+        "tail's samples from every evaluation start, after refinement "
+        "(mjsuff.scenes.surrogate)",
+    )
     polish_neighbours: int = Field(
-        160, ge=60, description="library entries each of those models is fitted to (a quadratic "
-                                "in the knots has 1 + n + n(n+1)/2 coefficients: 55 for 9 knots)")
+        160,
+        ge=60,
+        description="library entries each of those models is fitted to (a quadratic "
+        "in the knots has 1 + n + n(n+1)/2 coefficients: 55 for 9 knots)",
+    )
     revisit_cosine: float = Field(
-        0.999, gt=0.0, le=1.0,
+        0.999,
+        gt=0.0,
+        le=1.0,
         description="a group within this cosine of a direction already refined from the same "
-                    "start is not refined again")
+        "start is not refined again",
+    )
     seed_directions: int = Field(
-        8, ge=1, description="prior draws (all-negative reward directions) planned from every "
-                             "start up front: the random policy, and the library's seed")
+        8,
+        ge=1,
+        description="prior draws (all-negative reward directions) planned from every "
+        "start up front: the random policy, and the library's seed",
+    )
     seed_planner: PlannerConfig | None = Field(
-        None, description="budget of those plans (warm-started from the library); unset = the "
-                          "scene's tested default")
-    truth_scale: float = Field(4.0, ge=1.0, description="ground truth plans w* with about this × "
-                                                        "the planner's budget (PlannerConfig.stronger)")
+        None,
+        description="budget of those plans (warm-started from the library); unset = the "
+        "scene's tested default",
+    )
+    truth_scale: float = Field(
+        4.0,
+        ge=1.0,
+        description="ground truth plans w* with about this × the planner's budget (PlannerConfig.stronger)",
+    )
 
-    def resolved(self, planner: PlannerConfig, refine: PlannerConfig,
-                 seed: PlannerConfig) -> PlanningSettings:
+    def resolved(
+        self, planner: PlannerConfig, refine: PlannerConfig, seed: PlannerConfig
+    ) -> PlanningSettings:
         """These settings with a scene's tested ``planner``, ``refine`` and ``seed_planner``
         where they are unset."""
-        return self.model_copy(update={"planner": self.planner or planner,
-                                       "refine": self.refine or refine,
-                                       "seed_planner": self.seed_planner or seed})
+        return self.model_copy(
+            update={
+                "planner": self.planner or planner,
+                "refine": self.refine or refine,
+                "seed_planner": self.seed_planner or seed,
+            }
+        )

@@ -30,10 +30,10 @@ def model_path(name: str) -> Path:
     if not path.is_file():
         shipped = sorted(p.name for p in MODELS.glob("*.xml"))
         if not shipped:
-            raise FileNotFoundError(f"{MODELS}: mjsuff's MJCF models are missing (a broken "
-                                    "install: reinstall mjsuff)")
-        raise FileNotFoundError(f"{name}: no such MJCF model in {MODELS} (models: "
-                                f"{', '.join(shipped)})")
+            raise FileNotFoundError(
+                f"{MODELS}: mjsuff's MJCF models are missing (a broken install: reinstall mjsuff)"
+            )
+        raise FileNotFoundError(f"{name}: no such MJCF model in {MODELS} (models: {', '.join(shipped)})")
     return path
 
 
@@ -68,8 +68,7 @@ class Scene(abc.ABC):
     #: The planner budget this scene needs (see benchmarks/scenes.py and tests/test_planner.py).
     planner_config: PlannerConfig = PlannerConfig()
     #: One warm-started V* refinement for a group of reward vectors (tests/test_planner.py).
-    refine_config: PlannerConfig = PlannerConfig(population=32, elites=4, iterations=10,
-                                                 initial_std=0.1)
+    refine_config: PlannerConfig = PlannerConfig(population=32, elites=4, iterations=10, initial_std=0.1)
     #: The seed plans of prior draws from every start (the random policy; the library's seed).
     seed_config: PlannerConfig = PlannerConfig(population=32, elites=4, iterations=16)
 
@@ -96,17 +95,16 @@ class Scene(abc.ABC):
         """
         start_qpos = np.atleast_2d(start_qpos)
         anchor = self.anchor(start_qpos) if self.spline.anchored else None
-        rollouts = self.simulator.run(self.start_states(start_qpos),
-                                      self.spline.controls(knots, anchor))
+        rollouts = self.simulator.run(self.start_states(start_qpos), self.spline.controls(knots, anchor))
         features = self.features(rollouts)
         features[~rollouts.valid] = np.nan
         return rollouts, features
 
-    def simulate_controls(self, start_qpos: np.ndarray,
-                          controls: np.ndarray) -> tuple[Rollouts, np.ndarray]:
+    def simulate_controls(self, start_qpos: np.ndarray, controls: np.ndarray) -> tuple[Rollouts, np.ndarray]:
         """Roll out per-step controls ``(B, T, nu)`` (e.g. an expert's) from starts ``(B or 1, nq)``."""
-        rollouts = self.simulator.run(self.start_states(np.atleast_2d(start_qpos)),
-                                      np.asarray(controls, dtype=float))
+        rollouts = self.simulator.run(
+            self.start_states(np.atleast_2d(start_qpos)), np.asarray(controls, dtype=float)
+        )
         features = self.features(rollouts)
         features[~rollouts.valid] = np.nan
         return rollouts, features

@@ -78,8 +78,9 @@ class Simulator:
         """Simulate ``controls`` ``(B, T, nu)`` from ``initial_state`` ``(B or 1, nstate)``."""
         b, t, _ = controls.shape
         initial = np.broadcast_to(initial_state, (b, self.state_size))
-        state, sensordata = rollout.rollout(self.model, self._datas, np.ascontiguousarray(initial),
-                                            np.ascontiguousarray(controls))
+        state, sensordata = rollout.rollout(
+            self.model, self._datas, np.ascontiguousarray(initial), np.ascontiguousarray(controls)
+        )
         self.steps_simulated += b * t
         nq, nv = self.model.nq, self.model.nv
         qpos = state[:, :, 1 : 1 + nq]

@@ -22,8 +22,9 @@ class ControlSpline:
             so motion starts smoothly; the ``K`` knots then sit at t = T/K, 2T/K, …, T.
     """
 
-    def __init__(self, num_knots: int, num_steps: int, low: np.ndarray, high: np.ndarray,
-                 anchored: bool = False) -> None:
+    def __init__(
+        self, num_knots: int, num_steps: int, low: np.ndarray, high: np.ndarray, anchored: bool = False
+    ) -> None:
         if num_knots < 2 or num_steps < 2:
             raise ValueError(f"need >= 2 knots and steps, got {num_knots} and {num_steps}")
         low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
@@ -36,8 +37,7 @@ class ControlSpline:
         knot_t = np.linspace(0.0, 1.0, total)
         step_t = np.linspace(0.0, 1.0, num_steps)
         # basis[t, j]: weight of knot j at step t (hat functions); with an anchor, knot 0 is it.
-        self.basis = np.clip(1.0 - np.abs(step_t[:, None] - knot_t[None, :]) * (total - 1),
-                             0.0, None)
+        self.basis = np.clip(1.0 - np.abs(step_t[:, None] - knot_t[None, :]) * (total - 1), 0.0, None)
 
     @property
     def num_controls(self) -> int:

@@ -46,15 +46,22 @@ def _weights(scene_name: str, weights: np.ndarray | None, scene: Scene) -> np.nd
         return None
     w = np.asarray(weights, dtype=float)
     if w.shape != (scene.num_features,) or not np.isfinite(w).all():
-        raise ValueError(f"weights: scene {scene_name!r} rewards {scene.num_features} features "
-                         f"{scene.feature_names}; expected {scene.num_features} finite numbers, "
-                         f"got shape {w.shape}")
+        raise ValueError(
+            f"weights: scene {scene_name!r} rewards {scene.num_features} features "
+            f"{scene.feature_names}; expected {scene.num_features} finite numbers, "
+            f"got shape {w.shape}"
+        )
     return w
 
 
-def load(scene_name: str, seed: int | np.random.Generator | None = None, *,
-         weights: np.ndarray | None = None, params: BaseModel | dict | None = None,
-         environment_kwargs: dict | None = None) -> control.Environment:
+def load(
+    scene_name: str,
+    seed: int | np.random.Generator | None = None,
+    *,
+    weights: np.ndarray | None = None,
+    params: BaseModel | dict | None = None,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
     """An environment of scene ``scene_name`` whose every episode is a new instance (goal and
     lava, or pad) with its own ``w*`` and a start from its start distribution, drawn from ``seed``.
 
@@ -80,9 +87,15 @@ def load(scene_name: str, seed: int | np.random.Generator | None = None, *,
     return environment(module.PHYSICS.for_scene(first.scene), task, environment_kwargs)
 
 
-def load_instance(scene: Scene, true_weights: np.ndarray, *, weights: np.ndarray | None = None,
-                  starts: np.ndarray | None = None, seed: int | np.random.Generator | None = None,
-                  environment_kwargs: dict | None = None) -> control.Environment:
+def load_instance(
+    scene: Scene,
+    true_weights: np.ndarray,
+    *,
+    weights: np.ndarray | None = None,
+    starts: np.ndarray | None = None,
+    seed: int | np.random.Generator | None = None,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
     """An environment of one fixed scene instance (e.g. a run's, ``experts.generate.scene_instance``).
 
     Args:
@@ -92,22 +105,26 @@ def load_instance(scene: Scene, true_weights: np.ndarray, *, weights: np.ndarray
     """
     name = next((n for n, m in _MODULES.items() if isinstance(scene, m.SCENE)), None)
     if name is None:
-        raise ValueError(f"no environment for scene type {type(scene).__name__}; "
-                         f"mjsuff.suite has {sorted(_MODULES)}")
+        raise ValueError(
+            f"no environment for scene type {type(scene).__name__}; mjsuff.suite has {sorted(_MODULES)}"
+        )
     module = _MODULES[name]
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     instance = Instance(scene, np.asarray(true_weights, dtype=float))
     if starts is not None:
         starts = np.atleast_2d(np.asarray(starts, dtype=float))
         if starts.shape[1] != scene.model.nq:
-            raise ValueError(f"starts: scene {name!r} needs {scene.model.nq} joint positions per "
-                             f"start, got shape {starts.shape}")
+            raise ValueError(
+                f"starts: scene {name!r} needs {scene.model.nq} joint positions per "
+                f"start, got shape {starts.shape}"
+            )
     task = module.TASK(instance, rng, _weights(name, weights, scene), starts)
     return environment(module.PHYSICS.for_scene(scene), task, environment_kwargs)
 
 
-def load_demo_set(path: str | Path, *, weights: np.ndarray | None = None,
-                  environment_kwargs: dict | None = None) -> tuple[control.Environment, DemoSet]:
+def load_demo_set(
+    path: str | Path, *, weights: np.ndarray | None = None, environment_kwargs: dict | None = None
+) -> tuple[control.Environment, DemoSet]:
     """The instance a saved demo set was recorded on, as an environment whose episodes start at
     the demos' starts in order (replay demo ``i``'s ``controls`` in episode ``i``), and the set.
 
@@ -118,20 +135,27 @@ def load_demo_set(path: str | Path, *, weights: np.ndarray | None = None,
     meta = demo_set.meta
     name = meta.get("scene")
     if name not in _MODULES:
-        raise DemoFileError(f"{path}: field 'meta.scene': expected one of {sorted(_MODULES)}, "
-                            f"got {name!r}")
+        raise DemoFileError(f"{path}: field 'meta.scene': expected one of {sorted(_MODULES)}, got {name!r}")
     try:
         params = REGISTRY[name].params.model_validate(meta["scene_params"])
-        scene, true_weights = replicate_instance(name, params, int(meta["seed"]),
-                                                 int(meta["replicate"]), threads=1)
+        scene, true_weights = replicate_instance(
+            name, params, int(meta["seed"]), int(meta["replicate"]), threads=1
+        )
     except (KeyError, TypeError, ValueError) as exc:
         raise DemoFileError(f"{path}: field 'meta': cannot rebuild the instance ({exc})") from None
     if instance_fingerprint(scene) != meta.get("instance"):
-        raise DemoFileError(f"{path}: field 'meta.instance': the rebuilt instance differs "
-                            f"(recorded with mjsuff {meta.get('mjsuff_version')}, MuJoCo "
-                            f"{meta.get('mujoco_version')})")
-    env = load_instance(scene, true_weights, weights=weights,
-                        starts=demo_set.arrays["start_qpos"], environment_kwargs=environment_kwargs)
+        raise DemoFileError(
+            f"{path}: field 'meta.instance': the rebuilt instance differs "
+            f"(recorded with mjsuff {meta.get('mjsuff_version')}, MuJoCo "
+            f"{meta.get('mujoco_version')})"
+        )
+    env = load_instance(
+        scene,
+        true_weights,
+        weights=weights,
+        starts=demo_set.arrays["start_qpos"],
+        environment_kwargs=environment_kwargs,
+    )
     return env, demo_set
 
 

@@ -51,8 +51,9 @@ class ScenePhysics(Physics):
     def record(self, control: np.ndarray) -> None:
         """Record the step just taken with ``control`` (the state and sensors after it)."""
         d = self.data.ptr
-        self._steps.append((d.qpos.copy(), d.qvel.copy(), d.sensordata.copy(),
-                            np.asarray(control, dtype=float).copy()))
+        self._steps.append(
+            (d.qpos.copy(), d.qvel.copy(), d.sensordata.copy(), np.asarray(control, dtype=float).copy())
+        )
 
     @property
     def steps_taken(self) -> int:
@@ -83,4 +84,3 @@ class ScenePhysics(Physics):
         """Joint positions ``qpos`` at rest (call inside ``reset_context``)."""
         self.data.qpos[:] = qpos
         self.data.qvel[:] = 0.0
-

@@ -40,9 +40,14 @@ class SceneTask(base.Task, abc.ABC):
             ``instance``.
     """
 
-    def __init__(self, instance: Instance, rng: np.random.Generator,
-                 weights: np.ndarray | None = None, starts: np.ndarray | None = None,
-                 draw: Callable[[np.random.Generator], Instance] | None = None) -> None:
+    def __init__(
+        self,
+        instance: Instance,
+        rng: np.random.Generator,
+        weights: np.ndarray | None = None,
+        starts: np.ndarray | None = None,
+        draw: Callable[[np.random.Generator], Instance] | None = None,
+    ) -> None:
         super().__init__(random=np.random.RandomState(rng.integers(2**31)))  # unused by mjsuff
         self.instance, self._rng, self._draw = instance, rng, draw
         self.weights = None if weights is None else np.asarray(weights, dtype=float)
@@ -87,8 +92,7 @@ class SceneTask(base.Task, abc.ABC):
 
     def get_observation(self, physics: ScenePhysics) -> OrderedDict[str, np.ndarray]:
         obs = self.observe(physics)
-        obs["time_left"] = np.array([(self.horizon - physics.steps_taken)
-                                     * physics.model.opt.timestep])
+        obs["time_left"] = np.array([(self.horizon - physics.steps_taken) * physics.model.opt.timestep])
         return obs
 
     @abc.abstractmethod
@@ -96,14 +100,18 @@ class SceneTask(base.Task, abc.ABC):
         """What a policy needs of the current state (the scene's own part of the observation)."""
 
 
-def environment(physics: ScenePhysics, task: SceneTask,
-                environment_kwargs: dict | None = None) -> control.Environment:
+def environment(
+    physics: ScenePhysics, task: SceneTask, environment_kwargs: dict | None = None
+) -> control.Environment:
     """A ``control.Environment`` whose episodes end with the task's horizon (not a time limit),
     stepping with ``mj_step`` as ``mujoco.rollout`` does."""
     kwargs = dict(environment_kwargs or {})
     if kwargs.get("legacy_step", False):
-        raise ValueError("environment_kwargs: legacy_step must be False (a step is one mj_step, "
-                         "as in mujoco.rollout, or the sensors lag the featurizer's)")
+        raise ValueError(
+            "environment_kwargs: legacy_step must be False (a step is one mj_step, "
+            "as in mujoco.rollout, or the sensors lag the featurizer's)"
+        )
     kwargs.setdefault("time_limit", float("inf"))
-    return control.Environment(physics, task, legacy_step=False, **{k: v for k, v in kwargs.items()
-                                                                    if k != "legacy_step"})
+    return control.Environment(
+        physics, task, legacy_step=False, **{k: v for k, v in kwargs.items() if k != "legacy_step"}
+    )
