@@ -15,7 +15,7 @@ import numpy as np
 
 from mjsuff.bounds.regret import normalized_evd, percent_improvement, policy_values
 from mjsuff.bounds.var_bound import QuantileMethod, lower_var_bound, upper_var_bound, var_bound_index
-from mjsuff.domain import Demo, Domain, Policy
+from mjsuff.domain import BoundIndex, Demo, Domain, Policy
 from mjsuff.domains import get_domain
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experiment.selection import active_choice, passive_order
@@ -75,7 +75,7 @@ def stream_seed(seed: int, replicate: int, stream: str, *key: int) -> np.random.
 
 def nevd_bound_index(
     post: Posterior, alpha: float, delta: float, method: QuantileMethod = "normal"
-) -> Callable[[np.ndarray], int]:
+) -> BoundIndex:
     """The order statistic the nEVD bound takes, as a function of the per-sample values (their
     quantile ESS sets it): what ``Domain.optimal_start_values`` refines toward."""
     return lambda nevd: var_bound_index(len(nevd), alpha, delta, method, post.effective_size(nevd, alpha))
