@@ -35,11 +35,12 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mjsuff.bounds import normalized_evd, policy_values
+from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domain import Demo
-from mjsuff.experiment.replicate import demo_budget, make_instance, seed_sequence
+from mjsuff.experiment.replicate import make_instance
 from mjsuff.experiment.scenario import load_scenario
-from mjsuff.experiment.selection import passive_order
 from mjsuff.posterior import sample_posterior
+from mjsuff.seeds import stream_rng, stream_seed
 
 ROOT = Path(__file__).resolve().parent.parent
 HPD_LEVEL = 0.9
@@ -65,16 +66,19 @@ def run_instance(
     scenario = load_scenario(ROOT / "scenarios" / f"{scene}.toml", [*overrides, f"demos.beta={beta}"])
     alpha = scenario.sufficiency.alpha
     with threadpool_limits(limits=1):
-        domain = make_instance(scenario, instance, seed_sequence(scenario, instance, "calibration", 0))
-        pool = domain.pool.size
-        order = passive_order(
-            pool, np.random.default_rng(seed_sequence(scenario, instance, "calibration", 1))
+        domain = make_instance(scenario, instance, stream_seed(scenario.seed, instance, "calibration", 0))
+        schedule = DemoSchedule.draw(  # calibration's schedule, without its poor-demo draws
+            domain.pool.size,
+            scenario.demos.max_demos,
+            0.0,
+            stream_rng(scenario.seed, instance, "calibration", 1),
+            stream_rng(scenario.seed, instance, "calibration", 2),
         )
-        demo_rng = np.random.default_rng(seed_sequence(scenario, instance, "calibration", 2))
+        demo_rng = schedule.rng
         w_star = np.asarray(domain.true_weights, dtype=float)
         sw, mu_rand = domain.start_weights, domain.random_start_feature_expectations()
         demos, rows, previous = [], [], None
-        for n, start in enumerate(order[: demo_budget(scenario, pool)], start=1):
+        for n, start in enumerate(schedule.passive_starts(), start=1):
             demo = domain.demonstrate(int(start), demo_rng)
             if demonstrator == "likelihood":
                 demo = likelihood_demo(domain, demo, beta, demo_rng)
@@ -83,7 +87,7 @@ def run_instance(
             def log_post(w, used=tuple(demos)):
                 return domain.log_prior(w) + domain.log_likelihood(w, list(used), beta)
 
-            rng = np.random.default_rng(seed_sequence(scenario, instance, "calibration", 3, n))
+            rng = stream_rng(scenario.seed, instance, "calibration", 3, n)
             initial = (
                 previous if previous is not None else domain.sample_prior(rng, 4 * scenario.sampler().chains)
             )

@@ -1,7 +1,7 @@
 """Where replicates run: in this process, in local worker processes, or on a Ray cluster.
 
 A replicate is a pure function of (scenario, replicate index, demo source): its randomness comes
-from its own seed streams (``replicate.seed_sequence``), so every backend gives the same rows for
+from its own seed streams (``mjsuff.seeds``), so every backend gives the same rows for
 the same seeds. A backend takes a list of ``ReplicateTask`` and yields ``(task, ReplicateResult)`` as each one
 finishes, in whatever order they finish; the runner writes each to disk at once.
 

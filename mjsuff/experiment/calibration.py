@@ -1,7 +1,7 @@
 """The calibration stage: fit the likelihood's β to a scenario's demonstrator (paper §6.2).
 
 Calibration instances are drawn from the scenario's domain and demonstrator with seed streams no
-run uses (``replicate.seed_sequence(..., "calibration", ...)``). Each gets the demos a passive run
+run uses (the ``calibration`` seed stream, ``mjsuff.seeds``). Each gets the demos a passive run
 would ask for (the scenario's ``max_demos``, its share of poor demos); β is then fitted by maximum
 likelihood under each instance's known ``w*``, per instance and pooled over all of them
 (``mjsuff.posterior.calibration``).
@@ -23,11 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domain import Demo, Domain
-from mjsuff.experiment.replicate import demo_budget, make_instance, seed_sequence
+from mjsuff.experiment.replicate import make_instance
 from mjsuff.experiment.scenario import Scenario
-from mjsuff.experiment.selection import passive_order
 from mjsuff.posterior.calibration import BetaFit, fit_beta
+from mjsuff.seeds import stream_rng, stream_seed
 
 
 @dataclass(frozen=True)
@@ -78,22 +79,27 @@ class Calibration:
 
 
 def _stream(scenario: Scenario, instance: int, stream: int) -> np.random.Generator:
-    return np.random.default_rng(seed_sequence(scenario, instance, "calibration", stream))
+    return stream_rng(scenario.seed, instance, "calibration", stream)
 
 
 def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[Demo]]:
     """Calibration instance ``instance`` and the demos a passive run would be shown on it."""
-    domain = make_instance(scenario, instance, seed_sequence(scenario, instance, "calibration", 0))
+    domain = make_instance(scenario, instance, stream_seed(scenario.seed, instance, "calibration", 0))
     # w*'s own plan and V* refinement join a scene's trajectory library before any demo.
     domain.plan(domain.true_weights)
     domain.optimal_start_values(np.asarray(domain.true_weights, dtype=float)[None])
-    pool = domain.pool.size
-    order = passive_order(pool, _stream(scenario, instance, 1))
-    rng = _stream(scenario, instance, 2)
+    d = scenario.demos
+    schedule = DemoSchedule.draw(
+        domain.pool.size,
+        d.max_demos,
+        d.noise_fraction,
+        _stream(scenario, instance, 1),
+        _stream(scenario, instance, 2),
+    )
     demos = []
-    for start in order[: demo_budget(scenario, pool)]:
-        poor = bool(rng.random() < scenario.demos.noise_fraction)
-        demos.append(domain.demonstrate(int(start), rng, poor=poor))
+    for start in schedule.passive_starts():
+        poor = schedule.next_is_poor()
+        demos.append(domain.demonstrate(int(start), schedule.rng, poor=poor))
     return domain, demos
 
 

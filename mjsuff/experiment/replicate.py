@@ -15,11 +15,13 @@ import numpy as np
 
 from mjsuff.bounds.regret import normalized_evd, percent_improvement, policy_values
 from mjsuff.bounds.var_bound import QuantileMethod, lower_var_bound, upper_var_bound, var_bound_index
+from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domain import BoundIndex, Demo, Domain, Policy
 from mjsuff.domains import get_domain
 from mjsuff.experiment.scenario import Scenario
-from mjsuff.experiment.selection import active_choice, passive_order
+from mjsuff.experiment.selection import active_choice
 from mjsuff.posterior.sampler import Posterior, sample_posterior
+from mjsuff.seeds import stream_seed
 from mjsuff.stopping import (
     Evidence,
     NevdBoundRule,
@@ -46,31 +48,18 @@ def build_rules(scenario: Scenario) -> list[StoppingRule]:
 
 def make_instance(scenario: Scenario, replicate: int, seed: np.random.SeedSequence | None = None) -> Domain:
     """The domain instance of ``replicate`` (its own seed stream), or drawn from ``seed``."""
-    rng = np.random.default_rng(seed if seed is not None else seed_sequence(scenario, replicate, "instance"))
+    rng = np.random.default_rng(
+        seed if seed is not None else stream_seed(scenario.seed, replicate, "instance")
+    )
     domain = get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
     domain.configure(scenario)
     return domain
 
 
-#: Randomness streams of a replicate; ``calibration`` is the calibration stage's own
-#: (``mjsuff.experiment.calibration``), so its instances are drawn from streams no run uses.
-def demo_budget(scenario: Scenario, pool_size: int) -> int:
-    """Demos a replicate is shown: ``demos.max_demos`` (default: the pool), at most the pool."""
-    return min(scenario.demos.max_demos or pool_size, pool_size)
-
-
-_STREAMS = {"instance": 0, "demos": 1, "mcmc": 2, "selection": 3, "calibration": 100}
-
-
-def seed_sequence(scenario: Scenario, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
-    """The seed of one randomness stream (instance, demos, mcmc, selection, calibration) of a
-    replicate (or of a calibration instance)."""
-    return stream_seed(scenario.seed, replicate, stream, *key)
-
-
-def stream_seed(seed: int, replicate: int, stream: str, *key: int) -> np.random.SeedSequence:
-    """``seed_sequence`` from the scenario's seed alone."""
-    return np.random.SeedSequence(seed, spawn_key=(replicate, _STREAMS[stream], *key))
+def demo_schedule(scenario: Scenario, replicate: int, pool_size: int) -> DemoSchedule:
+    """Replicate ``replicate``'s passive demo schedule (``mjsuff.demo_schedule``)."""
+    d = scenario.demos
+    return DemoSchedule.of_replicate(scenario.seed, replicate, pool_size, d.max_demos, d.noise_fraction)
 
 
 def nevd_bound_index(
@@ -206,9 +195,8 @@ def run_replicate(
         rule.reset()
     cfg, suff = scenario.demos, scenario.sufficiency
     pool_size = domain.pool.size
-    max_demos = demo_budget(scenario, pool_size)
-    demo_rng = np.random.default_rng(seed_sequence(scenario, replicate, "demos"))
-    order = passive_order(pool_size, np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
+    schedule = demo_schedule(scenario, replicate, pool_size)
+    max_demos = schedule.budget
     truth = _Truth(domain)
     sw = domain.start_weights
     mu_rand = domain.random_start_feature_expectations()
@@ -224,7 +212,7 @@ def run_replicate(
         key = frozenset(excluded)
         if key not in posteriors:
             used = [d for j, d in enumerate(demos) if j not in key]
-            rng = np.random.default_rng(seed_sequence(scenario, replicate, "mcmc", n, *sorted(key)))
+            rng = np.random.default_rng(stream_seed(scenario.seed, replicate, "mcmc", n, *sorted(key)))
             # Held-out posteriors only serve their MAP: keep one sample per chain, one round.
             settings = sampler if not key else map_only
             initial = previous.get(key)
@@ -244,7 +232,7 @@ def run_replicate(
     rows: list[dict[str, Any]] = []
     scored: list[tuple[Policy, bool]] = []  # per row: the deployed policy, whether PIOB is its truth
     asked: set[int] = set()
-    next_start = int(order[0])
+    next_start = schedule.start(0)
     previous: dict[frozenset[int], np.ndarray] = {}
     for step in range(1, max_demos + 1):
         # Chains start near the posterior of the step before given the same held-out set.
@@ -252,8 +240,8 @@ def run_replicate(
         posteriors.clear()
         start = next_start
         asked.add(start)
-        poor = bool(demo_rng.random() < cfg.noise_fraction)
-        demos.append(source.demonstrate(start, demo_rng, poor=poor))
+        poor = schedule.next_is_poor()
+        demos.append(source.demonstrate(start, schedule.rng, poor=poor))
         poor = demos[-1].poor
 
         post, map_policy = posterior_excluding(frozenset())
@@ -324,7 +312,7 @@ def run_replicate(
                     pool_evd, asked, suff.alpha, suff.delta, suff.quantile_method, nevd_ess
                 )
             else:
-                next_start = int(order[step])
+                next_start = schedule.start(step)
     # The truth nothing beats: raised to everything simulated under w*, every row rescored.
     stats = truth.raise_to(domain.best_simulated_start_values(domain.true_weights))
     for row, (policy, measures_improvement) in zip(rows, scored, strict=True):

@@ -1,15 +1,11 @@
-"""Which start the next demonstration comes from: passive (shuffled) or active (paper Eq. 13)."""
+"""Active selection: the start the next demonstration comes from (paper Eq. 13); the passive
+order is ``mjsuff.demo_schedule``."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from mjsuff.bounds.var_bound import QuantileMethod, var_bound_index
-
-
-def passive_order(pool_size: int, rng: np.random.Generator) -> np.ndarray:
-    """A shuffled order of the pool: the demonstrator picks starts uniformly without repeats."""
-    return rng.permutation(pool_size)
 
 
 def active_choice(

@@ -15,9 +15,8 @@ import numpy as np
 from pydantic import BaseModel
 
 from mjsuff import __version__
-from mjsuff.experiment.replicate import seed_sequence, stream_seed
+from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.experiment.scenario import Scenario
-from mjsuff.experiment.selection import passive_order
 from mjsuff.experts.demo_set import DemoSet
 from mjsuff.experts.expert import Expert, ExpertDemo
 from mjsuff.experts.lander import LanderExpert
@@ -26,6 +25,7 @@ from mjsuff.scenes.domain import draw_true_weights
 from mjsuff.scenes.lander import Lander
 from mjsuff.scenes.lava_reacher import LavaReacher
 from mjsuff.scenes.scene import Scene
+from mjsuff.seeds import stream_rng
 
 #: Registered scenes with kinesthetic experts: name -> (scene type, expert type).
 EXPERTS: dict[str, tuple[type[Scene], type[Expert]]] = {
@@ -49,7 +49,7 @@ def replicate_instance(
 ) -> tuple[Scene, np.ndarray]:
     """The scene instance and hidden weights of replicate ``replicate`` of a run of scene ``name``
     with scenario seed ``seed`` (``scene_instance`` without the scenario)."""
-    rng = np.random.default_rng(stream_seed(seed, replicate, "instance"))
+    rng = stream_rng(seed, replicate, "instance")
     scene = EXPERTS[name][0](params, rng, threads)
     return scene, draw_true_weights(rng, scene.num_features)
 
@@ -93,18 +93,18 @@ def generate_demos(
     """
     scene, weights = scene_instance(scenario, replicate)
     expert = EXPERTS[scenario.domain.name][1](scene, scenario.expert)
-    demo_rng = np.random.default_rng(seed_sequence(scenario, replicate, "demos"))
-    order = passive_order(
-        len(scene.pool_starts), np.random.default_rng(seed_sequence(scenario, replicate, "selection"))
+    d = scenario.demos
+    schedule = DemoSchedule.of_replicate(
+        scenario.seed, replicate, len(scene.pool_starts), d.max_demos, d.noise_fraction
     )
     demos: list[ExpertDemo] = []
     starts: list[int] = []
     interrupted = False
     try:
         for i in range(count):
-            start = int(order[i % len(order)])
-            poor = bool(demo_rng.random() < scenario.demos.noise_fraction)
-            demos.append(expert.demonstrate(scene.pool_starts[start], weights, demo_rng, poor=poor))
+            start = schedule.start(i)
+            poor = schedule.next_is_poor()
+            demos.append(expert.demonstrate(scene.pool_starts[start], weights, schedule.rng, poor=poor))
             starts.append(start)
             if on_demo is not None:
                 on_demo(i, demos[-1])

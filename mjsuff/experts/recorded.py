@@ -11,10 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domain import Demo
-from mjsuff.experiment.replicate import seed_sequence
 from mjsuff.experiment.scenario import Scenario
-from mjsuff.experiment.selection import passive_order
 from mjsuff.experts.demo_set import DemoFileError, DemoSet, load_demo_set
 from mjsuff.experts.generate import instance_meta, scene_instance
 
@@ -104,8 +103,9 @@ def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int
                     "settings)"
                 )
         pool = len(scene.pool_starts)
-        order = passive_order(pool, np.random.default_rng(seed_sequence(scenario, replicate, "selection")))
-        needed = np.bincount(order[: min(scenario.demos.max_demos or pool, pool)], minlength=pool)
+        d = scenario.demos
+        schedule = DemoSchedule.of_replicate(scenario.seed, replicate, pool, d.max_demos, d.noise_fraction)
+        needed = np.bincount(schedule.passive_starts(), minlength=pool)
         have = np.bincount(demo_set.arrays["start_index"], minlength=pool)[:pool]
         short = np.flatnonzero(have < needed)
         if short.size:
