@@ -69,7 +69,6 @@ def reacher_case(demos: int, world_seed: int):
     scenario = load_scenario(ROOT / "scenarios" / "lava_reacher.toml")
     rng = np.random.default_rng([world_seed, 1000])
     domain = get_domain("lava_reacher").make(scenario.domain_params(), rng)
-    domain.configure(scenario)
     shown = [domain.demonstrate(s, rng) for s in range(demos)]
     beta = scenario.demos.beta
 

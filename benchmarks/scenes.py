@@ -27,8 +27,8 @@ import time
 import numpy as np
 from mujoco import rollout
 
-from mjsuff.experts.generate import EXPERTS
-from mjsuff.scenes.domain import SceneDomain
+from mjsuff.domains import REGISTRY
+from mjsuff.scenes.domain import SceneDomain, draw_true_weights
 from mjsuff.scenes.lander import Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
 from mjsuff.scenes.planner import SamplingPlanner
@@ -39,8 +39,10 @@ SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams), "lander": (Lander, L
 
 def make_domain(scene, rng: np.random.Generator) -> SceneDomain:
     """The scene behind the Domain seam with its own expert (the random policy's paths)."""
-    expert = next(e for t, e in EXPERTS.values() if isinstance(scene, t))
-    return SceneDomain(scene, rng, expert=expert(scene))
+    spec = next(s for s in REGISTRY.values() if s.scene is not None and isinstance(scene, s.scene))
+    assert spec.expert is not None
+    true_weights = draw_true_weights(rng, scene.num_features)
+    return SceneDomain(scene, true_weights, rng, expert=spec.expert()(scene))
 
 
 def make_scene(name: str, starts: int):

@@ -14,12 +14,9 @@ from __future__ import annotations
 import abc
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from mjsuff.experiment.scenario import Scenario
 
 Policy = Any
 """A domain's robot policy: opaque above the seam (an action per state for tabular domains)."""
@@ -138,11 +135,6 @@ class Domain(abc.ABC):
         """The best value under ``w`` ``(k,)`` of any trajectory the instance has simulated from
         each evaluation start ``(S,)``; −inf where nothing is kept (exact domains)."""
         return np.full(len(self.start_weights), -np.inf)
-
-    def configure(self, scenario: Scenario) -> None:
-        """Take scenario-level settings the domain reads (the scenes: expert, trajectory
-        tolerances). Nothing by default."""
-        return None
 
     def simulation_stats(self) -> dict[str, int]:
         """Counts of the simulation behind this instance so far, for the run's report (the

@@ -13,7 +13,7 @@ from mjsuff.experts.demo_set import DemoFileError, load_demo_set, truth_path
 from mjsuff.experts.generate import generate_demos, instance_meta, scene_instance
 
 ROOT = Path(__file__).resolve().parents[1]
-OVERRIDES = ["domain.params.eval_starts=3", "expert.refine_rounds=0"]
+OVERRIDES = ["domain.params.eval_starts=3", "domain.params.expert.refine_rounds=0"]
 
 
 @pytest.fixture(scope="module")

@@ -46,7 +46,7 @@ TINY = [
     "--set",
     "domain.params.planning.truth_scale=1.0",
     "--set",
-    "expert.refine_rounds=0",
+    "domain.params.expert.refine_rounds=0",
     "--set",
     "rules.validation_intervals=[2]",
     "--set",

@@ -182,3 +182,30 @@ def test_bare_names_resolve_to_shipped_scenarios_unless_a_file_has_that_name(tmp
     assert str(unknown.value) == (
         f"nonesuch: no such scenario file, nor a shipped scenario (shipped: {names})"
     )
+
+
+@pytest.mark.parametrize(
+    ("text", "sets", "expected"),
+    [
+        ("[expert]\nrefine_rounds = 1\n", [], "sc.toml: expert: a scene setting, now domain.params.expert"),
+        (
+            "",
+            ["demos.candidates=family"],
+            "sc.toml (--set demos.candidates): demos.candidates: a scene setting, now "
+            "domain.params.candidates",
+        ),
+        (
+            "",
+            ["expert.rationality=2.0"],
+            "sc.toml (--set expert.rationality): expert: a scene setting, now domain.params.expert",
+        ),
+        ("[rules]\nmatch_tolerance = 0.3\n", [], "now domain.params.match_tolerance"),
+    ],
+)
+def test_scene_settings_that_moved_name_their_new_key(tmp_path, text, sets, expected):
+    """Issue #18 moved the scenes' settings into their parameters; an old file says where."""
+    path = tmp_path / "sc.toml"
+    path.write_text(f'name = "x"\n[domain]\nname = "lander"\n{text}')
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path, sets)
+    assert expected in str(info.value) and "\n" not in str(info.value)

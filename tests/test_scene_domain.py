@@ -11,7 +11,6 @@ import pytest
 
 from mjsuff.domain import Demo
 from mjsuff.domains import REGISTRY, get_domain
-from mjsuff.experiment.scenario import scenario_from_dict
 from mjsuff.posterior import SamplerConfig, grid_posterior, sample_posterior
 from mjsuff.sphere import random_unit_vectors
 
@@ -25,8 +24,8 @@ SMALL_PLANNING = {
 BETA = 10.0
 
 
-def small_domain(name, seed=3):
-    params = {"eval_starts": 3, "pool_starts": 3, "planning": SMALL_PLANNING}
+def small_domain(name, seed=3, **settings):
+    params = {"eval_starts": 3, "pool_starts": 3, "planning": SMALL_PLANNING, **settings}
     return get_domain(name).make(params, np.random.default_rng(seed))
 
 
@@ -51,18 +50,19 @@ def test_candidate_set_holds_the_demo_and_the_demo_joins_the_library(case):
         )
 
 
-def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(case):
-    """With ``demos.candidates = "family"`` (issue #17) a demo is compared with the expert's first
-    candidates from its start, which a demonstrator that shows its best has beaten under w*: the
-    likelihood's assumption holds by construction (up to its random perturbations)."""
-    domain, _ = case
-    name = "lander" if domain.scene.feature_names[0] == "landing_error" else "lava_reacher"
-    scenario = scenario_from_dict(
-        {"name": "t", "domain": {"name": name}, "demos": {"candidates": "family"}}, "test"
+@pytest.mark.parametrize("name", SCENES)
+def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(name):
+    """With ``domain.params.candidates = "family"`` (issue #17) a demo is compared with the
+    expert's first candidates from its start, which a demonstrator that shows its best has beaten
+    under w*: the likelihood's assumption holds by construction (up to its random perturbations).
+    The scene's settings reach the domain through its parameters alone (issue #18)."""
+    expert = {"refine_rounds": 1, "refine_candidates": 8}  # refining only improves on the family
+    fresh = small_domain(
+        name, candidates="family", unchanged_tolerance=0.2, match_tolerance=0.3, expert=expert
     )
-    fresh = copy.deepcopy(domain)
-    fresh.configure(scenario)
     assert fresh.candidates == "family"
+    assert (fresh.unchanged_tolerance, fresh.match_tolerance) == (0.2, 0.3)
+    assert fresh.expert.settings.refine_candidates == 8
     w = fresh.true_weights
     for demo in (fresh.demonstrate(s, np.random.default_rng(4)) for s in range(2)):
         candidates = fresh.candidate_features(demo)
@@ -287,24 +287,6 @@ def test_ground_truth_is_not_beaten_by_the_learners_plans_near_w_star():
         v = -np.abs(v) / np.linalg.norm(v)  # inside the prior's orthant
         values = domain.start_feature_expectations(domain.plan(v)) @ w
         assert np.all(values <= truth + 0.01 * scale), (v, values - truth)
-
-
-def test_configure_takes_the_scenarios_tolerances_and_expert(case):
-    domain, _ = case
-    name = "lander" if domain.scene.feature_names[0] == "landing_error" else "lava_reacher"
-    scenario = scenario_from_dict(
-        {
-            "name": "t",
-            "domain": {"name": name},
-            "rules": {"unchanged_tolerance": 0.2, "match_tolerance": 0.3},
-            "expert": {"rationality": 5.0},
-        },
-        "test",
-    )
-    fresh = small_domain(name, seed=11)
-    fresh.configure(scenario)
-    assert (fresh.unchanged_tolerance, fresh.match_tolerance) == (0.2, 0.3)
-    assert fresh.expert.settings.rationality == 5.0
 
 
 def test_bad_demo_features_are_a_clear_error(case):

@@ -171,7 +171,7 @@ def test_demo_set_that_is_short_or_made_otherwise_is_refused_before_work(tmp_pat
     cases = {
         (): "the run asks for 3 demos in passive order but the file has none left from start",
         ("--set", "domain.params.horizon=1.0"): "field 'meta.scene_params'",
-        ("--set", "expert.rationality=2.0"): "field 'meta.expert'",
+        ("--set", "domain.params.expert.rationality=2.0"): "field 'meta.expert'",
         ("--set", 'demos.selection="active"'): "saved demos follow the passive order",
     }
     for extra, message in cases.items():

@@ -51,9 +51,7 @@ def make_instance(scenario: Scenario, replicate: int, seed: np.random.SeedSequen
     rng = np.random.default_rng(
         seed if seed is not None else stream_seed(scenario.seed, replicate, "instance")
     )
-    domain = get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
-    domain.configure(scenario)
-    return domain
+    return get_domain(scenario.domain.name).make(scenario.domain_params(), rng)
 
 
 def demo_schedule(scenario: Scenario, replicate: int, pool_size: int) -> DemoSchedule:

@@ -21,7 +21,6 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from mjsuff.bounds.var_bound import QuantileMethod, least_effective_size
 from mjsuff.domains import REGISTRY, get_domain
-from mjsuff.experts.expert import ExpertSettings
 from mjsuff.package_data import data_dir
 from mjsuff.posterior.sampler import SamplerConfig
 
@@ -44,13 +43,6 @@ class DemoSettings(_Strict):
     selection: Literal["passive", "active"] = "passive"
     noise_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of poor demos")
     beta: float = Field(10.0, gt=0.0, le=1000.0, description="Boltzmann rationality of the likelihood")
-    candidates: Literal["library", "family"] = Field(
-        "library",
-        description="scene domains: what the likelihood compares a demo with besides "
-        "random trajectories and its own perturbations — the library's "
-        "optima for fixed reward directions, or the demonstrator's own "
-        "first candidates (its path family) from the demo's start",
-    )
 
 
 class SufficiencySettings(_Strict):
@@ -71,18 +63,6 @@ class RuleSettings(_Strict):
     patience: list[Patience] = [1, 2, 3, 4, 5]
     validation_intervals: list[Interval] = [3, 4, 5, 6, 7]
     validation_min_held_out: int = Field(3, ge=1, description="held-out demos before it may stop")
-    unchanged_tolerance: float = Field(
-        0.05,
-        gt=0.0,
-        description="MuJoCo scenes: π_MAP counts as unchanged (patience) when its "
-        "trajectory features from every evaluation start moved by at most this (feature units)",
-    )
-    match_tolerance: float = Field(
-        0.1,
-        gt=0.0,
-        description="MuJoCo scenes: π_MAP matches a held-out demo (validation set) "
-        "when its trajectory features from the demo's start are within this of the demo's",
-    )
 
 
 class Scenario(_Strict):
@@ -93,7 +73,6 @@ class Scenario(_Strict):
     replicates: int = Field(20, ge=1)
     domain: DomainSettings
     demos: DemoSettings = DemoSettings()
-    expert: ExpertSettings = ExpertSettings()
     posterior: SamplerConfig = SamplerConfig()
     sufficiency: SufficiencySettings = SufficiencySettings()
     rules: RuleSettings = RuleSettings()
@@ -175,7 +154,7 @@ class Scenario(_Strict):
     def to_toml(self) -> str:
         """The resolved scenario (domain defaults filled in) as TOML, enough to rerun it."""
         data = self.model_dump(mode="json", exclude_none=True)
-        data["domain"]["params"] = self.domain_params().model_dump(mode="json")
+        data["domain"]["params"] = self.domain_params().model_dump(mode="json", exclude_none=True)
         return tomli_w.dumps(data)
 
 
@@ -284,9 +263,36 @@ def _origin(source: str, error: dict[str, Any], prefix: tuple[Any, ...], overrid
     return source
 
 
+#: Scene settings that moved into the scene's parameters (issue #18): old key -> new key.
+MOVED_KEYS = {
+    "expert": "domain.params.expert",
+    "demos.candidates": "domain.params.candidates",
+    "rules.unchanged_tolerance": "domain.params.unchanged_tolerance",
+    "rules.match_tolerance": "domain.params.match_tolerance",
+}
+
+
+def _moved_key(data: dict[str, Any]) -> str | None:
+    """The first key of ``data`` that ``MOVED_KEYS`` lists, if any."""
+    for old in MOVED_KEYS:
+        node: Any = data
+        for part in old.split("."):
+            node = node.get(part) if isinstance(node, dict) else None
+        if node is not None:
+            return old
+    return None
+
+
 def scenario_from_dict(data: dict[str, Any], source: str, overridden: set[str] | None = None) -> Scenario:
     """Validate raw scenario data; ``source`` (and any ``overridden`` key) is named in errors."""
     overridden = overridden or set()
+    moved = _moved_key(data)
+    if moved is not None:
+        given = [k for k in sorted(overridden) if k == moved or k.startswith(moved + ".")]
+        where = f"{source} (--set {given[0]})" if given else source
+        raise ScenarioError(
+            f"{where}: {moved}: a scene setting, now {MOVED_KEYS[moved]} (the scene's own parameters)"
+        )
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:

@@ -24,8 +24,8 @@ import abc
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
+from mjsuff.scenes.params import ExpertSettings
 from mjsuff.scenes.perturbation import perturb_controls
 from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.simulate import Rollouts
@@ -33,28 +33,6 @@ from mjsuff.scenes.simulate import Rollouts
 
 class ExpertError(RuntimeError):
     """The expert could not produce a demonstration (e.g. every candidate path failed IK)."""
-
-
-class ExpertSettings(BaseModel):
-    """How an expert demonstrates (the scenario's ``[expert]`` table)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
-
-    rationality: float | None = Field(
-        None, gt=0.0, description="Boltzmann rationality over candidates; none = always the best"
-    )
-    refine_rounds: int = Field(2, ge=0, le=10, description="local refinement rounds around the best path")
-    refine_candidates: int = Field(16, ge=1, le=256, description="candidates per refinement round")
-    correction_rounds: int = Field(
-        0,
-        ge=0,
-        le=1000,
-        description="most rounds of correcting the chosen demo by smooth control "
-        "perturbations (64 rollouts each); 0 = none",
-    )
-    correction_patience: int = Field(
-        3, ge=1, le=100, description="correction stops after this many rounds in a row without improvement"
-    )
 
 
 @dataclass(frozen=True)

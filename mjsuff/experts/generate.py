@@ -16,31 +16,27 @@ from pydantic import BaseModel
 
 from mjsuff import __version__
 from mjsuff.demo_schedule import DemoSchedule
+from mjsuff.domains import REGISTRY
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experts.demo_set import DemoSet
 from mjsuff.experts.expert import Expert, ExpertDemo
-from mjsuff.experts.lander import LanderExpert
-from mjsuff.experts.reacher import ReacherExpert
-from mjsuff.scenes.domain import draw_true_weights
-from mjsuff.scenes.lander import Lander
-from mjsuff.scenes.lava_reacher import LavaReacher
+from mjsuff.scenes.domain import draw_instance
 from mjsuff.scenes.scene import Scene
 from mjsuff.seeds import stream_rng
 
-#: Registered scenes with kinesthetic experts: name -> (scene type, expert type).
-EXPERTS: dict[str, tuple[type[Scene], type[Expert]]] = {
-    "lava_reacher": (LavaReacher, ReacherExpert),
-    "lander": (Lander, LanderExpert),
-}
+
+def scene_parts(name: str) -> tuple[type[Scene], type[Expert]]:
+    """The scene and expert types of registered scene domain ``name``; a one-line error for a
+    tabular or unknown one."""
+    spec = REGISTRY.get(name)
+    if spec is None or spec.scene is None or spec.expert is None:
+        scenes = sorted(n for n, s in REGISTRY.items() if s.kind == "scene")
+        raise ValueError(f"domain.name: demos are generated for the MuJoCo scenes {scenes}, not {name!r}")
+    return spec.scene, spec.expert()
 
 
 def scene_instance(scenario: Scenario, replicate: int = 0) -> tuple[Scene, np.ndarray]:
     """Replicate ``replicate``'s scene instance and hidden weights (as ``mjsuff run`` builds them)."""
-    if scenario.domain.name not in EXPERTS:
-        raise ValueError(
-            f"domain.name: demos are generated for the MuJoCo scenes "
-            f"{sorted(EXPERTS)}, not {scenario.domain.name!r}"
-        )
     return replicate_instance(scenario.domain.name, scenario.domain_params(), scenario.seed, replicate)
 
 
@@ -49,9 +45,8 @@ def replicate_instance(
 ) -> tuple[Scene, np.ndarray]:
     """The scene instance and hidden weights of replicate ``replicate`` of a run of scene ``name``
     with scenario seed ``seed`` (``scene_instance`` without the scenario)."""
-    rng = stream_rng(seed, replicate, "instance")
-    scene = EXPERTS[name][0](params, rng, threads)
-    return scene, draw_true_weights(rng, scene.num_features)
+    scene_type, _ = scene_parts(name)
+    return draw_instance(scene_type, params, stream_rng(seed, replicate, "instance"), threads)
 
 
 def instance_fingerprint(scene: Scene) -> str:
@@ -92,7 +87,8 @@ def generate_demos(
     demos finished so far are returned (``meta["interrupted"]`` is True), never lost.
     """
     scene, weights = scene_instance(scenario, replicate)
-    expert = EXPERTS[scenario.domain.name][1](scene, scenario.expert)
+    params = scenario.domain_params()
+    expert = scene_parts(scenario.domain.name)[1](scene, params.expert)
     d = scenario.demos
     schedule = DemoSchedule.of_replicate(
         scenario.seed, replicate, len(scene.pool_starts), d.max_demos, d.noise_fraction
@@ -113,8 +109,8 @@ def generate_demos(
     m = scene.model
     meta = {
         **instance_meta(scenario, replicate, scene),
-        "scene_params": scenario.domain_params().model_dump(mode="json"),
-        "expert": scenario.expert.model_dump(mode="json"),
+        "scene_params": params.model_dump(mode="json"),
+        "expert": params.expert.model_dump(mode="json"),
         "noise_fraction": scenario.demos.noise_fraction,
         "feature_names": list(scene.feature_names),
         "num_features": scene.num_features,

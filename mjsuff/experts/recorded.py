@@ -45,10 +45,15 @@ class RecordedDemos:
         )
 
 
+#: Scene parameters that do not shape the demos (the learner's budgets and comparisons); the
+#: expert's settings are checked on their own (``meta.expert``).
+_NOT_DEMO_SETTINGS = ("planning", "expert", "candidates", "unchanged_tolerance", "match_tolerance")
+
+
 def _demo_settings(params: dict, expert: dict, noise: float) -> dict:
-    """What shapes the demos besides the instance (planning budgets do not)."""
+    """What shapes the demos besides the instance."""
     return {
-        "scene_params": {k: v for k, v in params.items() if k != "planning"},
+        "scene_params": {k: v for k, v in params.items() if k not in _NOT_DEMO_SETTINGS},
         "expert": expert,
         "noise_fraction": noise,
     }
@@ -70,9 +75,10 @@ def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int
             f"{paths[0]}: saved demos follow the passive order; the scenario has "
             f"demos.selection = {scenario.demos.selection!r}"
         )
+    params = scenario.domain_params().model_dump(mode="json")
     wanted = _demo_settings(
-        scenario.domain_params().model_dump(mode="json"),
-        scenario.expert.model_dump(mode="json"),
+        params,
+        params.get("expert"),
         scenario.demos.noise_fraction,
     )
     served: dict[int, RecordedDemos] = {}

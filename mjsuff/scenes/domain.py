@@ -25,7 +25,7 @@ mode's optimum before the first demo.
 
 Likelihood (DESIGN, trajectory-level Bayesian IRL). Demo ``j`` from pool start ``s_j`` with
 features ``φ_j`` has ``P(φ_j | w) = exp(β w·φ_j) / Σ_{τ ∈ C_j} exp(β w·φ(τ))`` over a candidate set
-``C_j`` fixed when the demo is first seen: the demo itself; either (``demos.candidates =
+``C_j`` fixed when the demo is first seen: the demo itself; either (``domain.params.candidates =
 "library"``) the library's best trajectory from ``s_j`` for each of a fixed spread of reward
 directions over the prior's orthant (library optima: plans, refinements, or random trajectories),
 or (``"family"``) the demonstrator's own first candidates from ``s_j`` (its coarse path family,
@@ -67,12 +67,12 @@ import zlib
 from typing import TYPE_CHECKING
 
 import numpy as np
-from pydantic import BaseModel
 from scipy.special import logsumexp
 
 from mjsuff.bounds.regret import normalized_evd
 from mjsuff.domain import BoundIndex, Demo, Domain
 from mjsuff.scenes.library import TrajectoryLibrary
+from mjsuff.scenes.params import Candidates, SceneParams
 from mjsuff.scenes.perturbation import perturb_controls
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
@@ -81,7 +81,6 @@ from mjsuff.scenes.surrogate import polish
 from mjsuff.sphere import normalize, random_unit_vectors
 
 if TYPE_CHECKING:
-    from mjsuff.experiment.scenario import Scenario
     from mjsuff.experts.expert import Expert
 
 #: Uniform-random trajectories per start: alternatives in the demos' candidate sets.
@@ -120,7 +119,8 @@ class SceneDomain(Domain):
 
     Args:
         scene: The randomized scene instance.
-        rng: Randomness of the hidden weights, the random policy and planning.
+        true_weights: Its hidden weights ``w*`` ``(k,)`` (``draw_instance`` draws both).
+        rng: Randomness of the random policy and planning.
         planning: Budgets (``mjsuff.scenes.planning``): π for a reward vector; one refinement
             in ``optimal_start_values``, the most weight groups refined per start and round, the
             rounds per call, the share of nEVD's upper tail that is refined, and the cosine within
@@ -134,6 +134,8 @@ class SceneDomain(Domain):
             in feature units).
         match_tolerance: A policy matches a demo when its trajectory from the demo's start has
             features within this of the demo's (same measure).
+        candidates: What a demo is compared with in the likelihood (module docs): ``"library"``
+            or ``"family"``.
         optimal_gap: A policy's trajectory from a start counts as optimal under ``w*`` when its
             value is within this share of ``V*(s) − V_rand(s)`` of the optimum.
     """
@@ -141,18 +143,20 @@ class SceneDomain(Domain):
     def __init__(
         self,
         scene: Scene,
+        true_weights: np.ndarray,
         rng: np.random.Generator,
         planning: PlanningSettings | None = None,
         expert: Expert | None = None,
         unchanged_tolerance: float = 0.05,
         match_tolerance: float = 0.1,
         optimal_gap: float = 0.05,
+        candidates: Candidates = "library",
     ) -> None:
         self.scene = scene
         self.expert = expert
         self.rng = rng
         k = self.num_features = scene.num_features
-        self.true_weights = draw_true_weights(rng, k)
+        self.true_weights = np.asarray(true_weights, dtype=float)
         s, p = len(scene.starts), len(scene.pool_starts)
         everywhere = np.arange(s + p)
         self.start_weights = np.full(s, 1.0 / s)
@@ -170,7 +174,7 @@ class SceneDomain(Domain):
         self.unchanged_tolerance = unchanged_tolerance
         self.match_tolerance = match_tolerance
         self.optimal_gap = optimal_gap
-        self.candidates = "library"
+        self.candidates = candidates
         self._family: dict[int, np.ndarray] = {}
         knots = scene.spline.uniform(rng, RANDOM_TRAJECTORIES * (s + p))
         _, feats = scene.simulate(np.repeat(scene.all_starts, RANDOM_TRAJECTORIES, axis=0), knots)
@@ -242,18 +246,6 @@ class SceneDomain(Domain):
         """MuJoCo steps simulated and rollouts flagged as diverged (never scored) so far."""
         sim = self.scene.simulator
         return {"simulated_steps": sim.steps_simulated, "diverged_rollouts": sim.diverged}
-
-    def configure(self, scenario: Scenario) -> None:
-        """Take the scenario's expert settings and trajectory tolerances (``[expert]``, ``[rules]``)."""
-        from mjsuff.experts.generate import EXPERTS
-
-        if self.expert is not None:
-            self.expert = EXPERTS[scenario.domain.name][1](self.scene, scenario.expert)
-        self.unchanged_tolerance = scenario.rules.unchanged_tolerance
-        self.match_tolerance = scenario.rules.match_tolerance
-        if scenario.demos.candidates != self.candidates:
-            self._candidates.clear()  # sets built for the other kind of candidates are stale
-        self.candidates = scenario.demos.candidates
 
     # -- prior ---------------------------------------------------------------------------------
     uniform_prior = False
@@ -640,10 +632,27 @@ class SceneDomain(Domain):
         return total
 
 
-def make_scene_domain(scene_type: type[Scene], params: BaseModel, rng: np.random.Generator) -> SceneDomain:
-    """Build a scene instance and wrap it with its expert, drawing both from ``rng``."""
-    from mjsuff.experts.generate import EXPERTS  # the experts import the scenes
+def draw_instance(
+    scene_type: type[Scene], params: SceneParams, rng: np.random.Generator, threads: int | None = None
+) -> tuple[Scene, np.ndarray]:
+    """A scene instance and its hidden weights ``w*``, drawn from ``rng`` in that order: every
+    builder of a run's instance (``make_scene_domain``, ``mjsuff demos``, the suite) draws it here."""
+    scene = scene_type(params, rng, threads)
+    return scene, draw_true_weights(rng, scene.num_features)
 
-    scene = scene_type(params, rng)
-    expert_type = next(e for s, e in EXPERTS.values() if s is scene_type)
-    return SceneDomain(scene, rng, planning=getattr(params, "planning", None), expert=expert_type(scene))
+
+def make_scene_domain(
+    scene_type: type[Scene], expert_type: type[Expert], params: SceneParams, rng: np.random.Generator
+) -> SceneDomain:
+    """A scene domain instance from ``rng``: the scene, ``w*``, and the expert with its settings."""
+    scene, true_weights = draw_instance(scene_type, params, rng)
+    return SceneDomain(
+        scene,
+        true_weights,
+        rng,
+        planning=params.planning,
+        expert=expert_type(scene, params.expert),
+        unchanged_tolerance=params.unchanged_tolerance,
+        match_tolerance=params.match_tolerance,
+        candidates=params.candidates,
+    )

@@ -43,10 +43,10 @@ all-negative part of the sphere: every feature is a cost.
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
+from mjsuff.scenes.params import SceneParams
 from mjsuff.scenes.planner_config import PlannerConfig
-from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene, load_model
 from mjsuff.scenes.simulate import Rollouts
 from mjsuff.scenes.spline import ControlSpline
@@ -69,16 +69,11 @@ TOUCH_THRESHOLD = 1e-6
 MAX_THRUST = 40.0
 
 
-class LanderParams(BaseModel):
+class LanderParams(SceneParams):
     """Instance parameters of the lander."""
 
-    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
-
-    eval_starts: int = Field(6, ge=1, le=256, description="fixed evaluation starts (never demonstrated)")
-    pool_starts: int = Field(10, ge=1, le=256, description="starts a demonstration can be asked from")
     horizon: float = Field(4.0, gt=0.5, le=20.0, description="trajectory length (s)")
     knots: int = Field(5, ge=2, le=20, description="control knots per actuator")
-    planning: PlanningSettings = Field(PlanningSettings(), description="planning budgets")
 
     @model_validator(mode="after")
     def _scene_defaults(self) -> LanderParams:

@@ -37,10 +37,10 @@ sphere: every feature is a cost.
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
+from mjsuff.scenes.params import SceneParams
 from mjsuff.scenes.planner_config import PlannerConfig
-from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene, load_model
 from mjsuff.scenes.simulate import Rollouts
 from mjsuff.scenes.spline import ControlSpline
@@ -66,16 +66,11 @@ PRIMITIVE_TOOL_ANGLES = 12
 PRIMITIVE_REACH = (0.25, 0.5, 0.75, 1.0)
 
 
-class LavaReacherParams(BaseModel):
+class LavaReacherParams(SceneParams):
     """Instance parameters of the lava reacher."""
 
-    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
-
-    eval_starts: int = Field(6, ge=1, le=256, description="fixed evaluation starts (never demonstrated)")
-    pool_starts: int = Field(10, ge=1, le=256, description="starts a demonstration can be asked from")
     horizon: float = Field(1.5, gt=0.2, le=10.0, description="trajectory length (s)")
     knots: int = Field(3, ge=2, le=20, description="control knots per joint")
-    planning: PlanningSettings = Field(PlanningSettings(), description="planning budgets")
 
     @model_validator(mode="after")
     def _scene_defaults(self) -> LavaReacherParams:
