@@ -284,14 +284,14 @@ def cmd_hoeffding(args: argparse.Namespace) -> int:
 
 
 def cmd_demos(args: argparse.Namespace) -> int:
-    from mjsuff.domains import REGISTRY
+    from mjsuff.domains import REGISTRY, get_domain
     from mjsuff.experts.demo_set import truth_path
     from mjsuff.experts.generate import generate_demos  # mink only when asked for
 
     scenario = _load(args)
     if scenario is None:
         return EXIT_USAGE
-    if REGISTRY[scenario.domain.name].kind != "scene":
+    if get_domain(scenario.domain.name).kind != "scene":
         scenes = sorted(n for n, s in REGISTRY.items() if s.kind == "scene")
         err.print(
             f"[red]error:[/] {args.scenario}: domain.name: demos are generated for the MuJoCo "

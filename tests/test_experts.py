@@ -7,6 +7,7 @@ means the expert beat the planner.
 import numpy as np
 import pytest
 
+from mjsuff.domains import REGISTRY
 from mjsuff.experts.expert import ExpertError, ExpertSettings
 from mjsuff.experts.lander import LanderExpert
 from mjsuff.experts.reacher import ReacherExpert
@@ -17,8 +18,9 @@ from mjsuff.scenes.planner import SamplingPlanner
 
 STARTS = 3
 SCENES = {
-    "lava_reacher": (LavaReacher, LavaReacherParams, ReacherExpert),
-    "lander": (Lander, LanderParams, LanderExpert),
+    n: (spec.scene, spec.params, spec.expert())
+    for n, spec in REGISTRY.items()
+    if spec.scene is not None and spec.expert is not None
 }
 # Stated gaps (mean over the starts), against a planner without a library. Measured on these
 # seeds: reacher 0.001–0.054, mean 0.029 (two hazards that cost 3× more than in v0.1: a 3-knot fit

@@ -8,15 +8,13 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from mjsuff.domains import get_domain
+from mjsuff.domains import REGISTRY, get_domain
 from mjsuff.scenes.domain import SceneDomain
-from mjsuff.scenes.lander import Lander, LanderParams
-from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planner_config import PlannerConfig
 from mjsuff.sphere import random_unit_vectors
 
-SCENES = {"lava_reacher": (LavaReacher, LavaReacherParams), "lander": (Lander, LanderParams)}
+SCENES = {n: (spec.scene, spec.params) for n, spec in REGISTRY.items() if spec.scene is not None}
 STARTS = 4
 LIMIT = {"lava_reacher": 0.01, "lander": 0.025}
 

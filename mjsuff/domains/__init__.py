@@ -1,7 +1,14 @@
-"""Registered domains: each name maps to a factory and its parameter model (with defaults)."""
+"""The one registry of domains: each name maps to a spec (parameter model, factory, expert, view).
+
+Every part of mjsuff that needs a domain (the scenario, the run, demo generation, recordings, the
+dm_control suite, the tests) looks it up here. Domains from outside mjsuff register themselves
+(``register``) or are named by import path in a scenario (``domain.name = "my_lab.toy:SPEC"``).
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
@@ -21,6 +28,7 @@ from mjsuff.scenes.scene import Scene
 
 if TYPE_CHECKING:
     from mjsuff.experts.expert import Expert
+    from mjsuff.recording.views import DomainView
 
 
 @dataclass(frozen=True)
@@ -36,6 +44,8 @@ class DomainSpec:
         scene: A scene domain's ``Scene`` type (its physics and features); ``None`` otherwise.
         expert: A scene domain's kinesthetic expert type, loaded on first use (mink is imported
             only when a scene runs); ``None`` otherwise.
+        view: How a recording draws the domain's instances (``mjsuff.recording.views``), loaded
+            on first use; ``None`` draws nothing of the instance (the plots still show the run).
     """
 
     name: str
@@ -44,6 +54,7 @@ class DomainSpec:
     kind: Literal["tabular", "scene"] = "tabular"
     scene: type[Scene] | None = None
     expert: Callable[[], type[Expert]] | None = None
+    view: Callable[[], type[DomainView]] | None = None
 
     def make(self, params: BaseModel | dict | None, rng: np.random.Generator) -> Domain:
         """Validate ``params`` (defaults when ``None``) and build an instance from ``rng``."""
@@ -61,7 +72,19 @@ def scene_domain(
     def factory(p: SceneParams, rng: np.random.Generator) -> Domain:
         return make_scene_domain(scene, expert(), p, rng)
 
-    return DomainSpec(name, params, factory, "scene", scene, expert)
+    return DomainSpec(name, params, factory, "scene", scene, expert, _scene_view)
+
+
+def _scene_view() -> type[DomainView]:
+    from mjsuff.recording.views import SceneView  # rerun only when a run records
+
+    return SceneView
+
+
+def _tabular_view() -> type[DomainView]:
+    from mjsuff.recording.views import TabularView  # rerun only when a run records
+
+    return TabularView
 
 
 def _reacher_expert() -> type[Expert]:
@@ -77,19 +100,57 @@ def _lander_expert() -> type[Expert]:
 
 
 REGISTRY: dict[str, DomainSpec] = {
-    "gridworld": DomainSpec("gridworld", GridworldParams, make_gridworld),
-    "driving": DomainSpec("driving", DrivingParams, make_driving),
+    "gridworld": DomainSpec("gridworld", GridworldParams, make_gridworld, view=_tabular_view),
+    "driving": DomainSpec("driving", DrivingParams, make_driving, view=_tabular_view),
     "lava_reacher": scene_domain("lava_reacher", LavaReacher, LavaReacherParams, _reacher_expert),
     "lander": scene_domain("lander", Lander, LanderParams, _lander_expert),
 }
 
 
+class UnknownDomainError(KeyError):
+    """No domain of that name is registered or can be imported; the message is one line."""
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+def register(spec: DomainSpec) -> DomainSpec:
+    """Add ``spec`` to the registry under ``spec.name`` and return it.
+
+    Raises:
+        ValueError: Another spec is registered under that name.
+    """
+    known = REGISTRY.setdefault(spec.name, spec)
+    if known is not spec:
+        raise ValueError(f"domain {spec.name!r} is registered already")
+    return spec
+
+
 def get_domain(name: str) -> DomainSpec:
-    """The registered domain called ``name``."""
-    try:
+    """The registered domain called ``name``.
+
+    A name ``module:attribute`` (e.g. ``my_lab.toy:SPEC``) names a ``DomainSpec`` outside mjsuff:
+    the module is imported (it must be importable, e.g. installed or on ``PYTHONPATH``) and the
+    spec registered under that name, so a scenario can run a domain mjsuff does not ship.
+
+    Raises:
+        UnknownDomainError: Nothing is registered under ``name`` and it names no importable spec.
+    """
+    if name in REGISTRY:
         return REGISTRY[name]
-    except KeyError:
-        raise KeyError(f"unknown domain {name!r}; expected one of {sorted(REGISTRY)}") from None
+    module_name, colon, attribute = name.partition(":")
+    if not colon:
+        raise UnknownDomainError(f"expected one of {sorted(REGISTRY)} or module:attribute (got {name!r})")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise UnknownDomainError(f"cannot import module {module_name!r} ({exc})") from None
+    spec = getattr(module, attribute, None)
+    if not isinstance(spec, DomainSpec):
+        raise UnknownDomainError(f"{name!r}: expected a mjsuff.domains.DomainSpec, got {type(spec).__name__}")
+    if spec.name != name:
+        spec = dataclasses.replace(spec, name=name)
+    return REGISTRY.setdefault(name, spec)
 
 
 __all__ = [
@@ -98,6 +159,8 @@ __all__ = [
     "OptimalPolicyCache",
     "TabularDomain",
     "TabularMDP",
+    "UnknownDomainError",
     "get_domain",
+    "register",
     "scene_domain",
 ]

@@ -20,7 +20,7 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from mjsuff.bounds.var_bound import QuantileMethod, least_effective_size
-from mjsuff.domains import REGISTRY, get_domain
+from mjsuff.domains import REGISTRY, UnknownDomainError, get_domain
 from mjsuff.package_data import data_dir
 from mjsuff.posterior.sampler import SamplerConfig
 
@@ -34,7 +34,7 @@ class _Strict(BaseModel):
 
 
 class DomainSettings(_Strict):
-    name: str = Field(description=f"registered domain: one of {sorted(REGISTRY)}")
+    name: str = Field(description=f"registered domain ({sorted(REGISTRY)}) or module:attribute")
     params: dict[str, Any] = Field(default_factory=dict, description="domain parameters")
 
 
@@ -298,10 +298,10 @@ def scenario_from_dict(data: dict[str, Any], source: str, overridden: set[str] |
     except ValidationError as exc:
         error = exc.errors()[0]
         raise ScenarioError(f"{_origin(source, error, (), overridden)}: {_describe(error)}") from None
-    if scenario.domain.name not in REGISTRY:
-        raise ScenarioError(
-            f"{source}: domain.name: expected one of {sorted(REGISTRY)} (got {scenario.domain.name!r})"
-        )
+    try:
+        get_domain(scenario.domain.name)
+    except UnknownDomainError as exc:
+        raise ScenarioError(f"{source}: domain.name: {exc}") from None
     try:
         scenario.domain_params()
     except ValidationError as exc:

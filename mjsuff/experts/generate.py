@@ -16,11 +16,12 @@ from pydantic import BaseModel
 
 from mjsuff import __version__
 from mjsuff.demo_schedule import DemoSchedule
-from mjsuff.domains import REGISTRY
+from mjsuff.domains import REGISTRY, get_domain
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experts.demo_set import DemoSet
 from mjsuff.experts.expert import Expert, ExpertDemo
 from mjsuff.scenes.domain import draw_instance
+from mjsuff.scenes.params import SceneParams
 from mjsuff.scenes.scene import Scene
 from mjsuff.seeds import stream_rng
 
@@ -28,8 +29,8 @@ from mjsuff.seeds import stream_rng
 def scene_parts(name: str) -> tuple[type[Scene], type[Expert]]:
     """The scene and expert types of registered scene domain ``name``; a one-line error for a
     tabular or unknown one."""
-    spec = REGISTRY.get(name)
-    if spec is None or spec.scene is None or spec.expert is None:
+    spec = get_domain(name)
+    if spec.scene is None or spec.expert is None:
         scenes = sorted(n for n, s in REGISTRY.items() if s.kind == "scene")
         raise ValueError(f"domain.name: demos are generated for the MuJoCo scenes {scenes}, not {name!r}")
     return spec.scene, spec.expert()
@@ -46,7 +47,14 @@ def replicate_instance(
     """The scene instance and hidden weights of replicate ``replicate`` of a run of scene ``name``
     with scenario seed ``seed`` (``scene_instance`` without the scenario)."""
     scene_type, _ = scene_parts(name)
-    return draw_instance(scene_type, params, stream_rng(seed, replicate, "instance"), threads)
+    return draw_instance(scene_type, _scene_params(params), stream_rng(seed, replicate, "instance"), threads)
+
+
+def _scene_params(params: BaseModel) -> SceneParams:
+    """``params`` as a scene's parameters (every registered scene's model extends them)."""
+    if not isinstance(params, SceneParams):
+        raise TypeError(f"a scene's parameters extend SceneParams; got {type(params).__name__}")
+    return params
 
 
 def instance_fingerprint(scene: Scene) -> str:
@@ -87,7 +95,7 @@ def generate_demos(
     demos finished so far are returned (``meta["interrupted"]`` is True), never lost.
     """
     scene, weights = scene_instance(scenario, replicate)
-    params = scenario.domain_params()
+    params = _scene_params(scenario.domain_params())
     expert = scene_parts(scenario.domain.name)[1](scene, params.expert)
     d = scenario.demos
     schedule = DemoSchedule.of_replicate(

@@ -3,7 +3,7 @@
 from mjsuff.recording.reader import Recording
 from mjsuff.recording.recorder import ReplicateRecorder, RunRecorder, blueprint
 from mjsuff.recording.scene_logger import SceneLogger, wxyz_to_xyzw
-from mjsuff.recording.views import DomainView, SceneView, TabularView, view_for
+from mjsuff.recording.views import DomainView, SceneView, TabularView
 
 __all__ = [
     "DomainView",
@@ -14,6 +14,5 @@ __all__ = [
     "SceneView",
     "TabularView",
     "blueprint",
-    "view_for",
     "wxyz_to_xyzw",
 ]

@@ -23,8 +23,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from mjsuff.domain import Demo, Domain, Policy
+from mjsuff.domains import get_domain
 from mjsuff.experiment.scenario import Scenario
-from mjsuff.recording.views import view_for
+from mjsuff.recording.views import DomainView
 
 LOW, HIGH = np.array([40, 60, 200]), np.array([250, 220, 40])
 
@@ -105,20 +106,19 @@ def rule_path(row: dict[str, Any]) -> str:
 class ReplicateRecorder:
     """Records one replicate (an observer of ``run_replicate``)."""
 
-    def __init__(
-        self, recording: rr.RecordingStream, replicate: int, scenario: Scenario | None = None
-    ) -> None:
+    def __init__(self, recording: rr.RecordingStream, replicate: int, scenario: Scenario) -> None:
         self.recording = recording
         self.replicate = replicate
         self.scenario = scenario
         self.root = f"r{replicate}"
-        self.view = None
+        self.view: DomainView | None = None
         self.domain: Domain | None = None
         self._stopped: set[str] = set()
 
     def begin(self, domain: Domain) -> None:
         self.domain = domain
-        self.view = view_for(domain, self.recording, self.root)
+        load_view = get_domain(self.scenario.domain.name).view
+        self.view = (load_view() if load_view else DomainView)(domain, self.recording, self.root)
         self.view.log_instance()
         eye = self.view.eye()
         if self.replicate == 0 and eye is not None:
@@ -143,6 +143,8 @@ class ReplicateRecorder:
         map_policy: Policy,
         rows: list[dict[str, Any]],
     ) -> None:
+        if self.domain is None or self.view is None:
+            raise RuntimeError("ReplicateRecorder.step before begin")
         rec, root = self.recording, self.root
         rec.set_time("demo", sequence=step)
         points, (w_map, w_true) = project(samples, map_weights, self.domain.true_weights)

@@ -130,6 +130,13 @@ class SceneLogger:
             pos[t], quat[t] = d.xpos, d.xquat
         return pos, quat
 
+    def site_positions(self, qpos: np.ndarray) -> np.ndarray:
+        """World positions ``(nsite, 3)`` (m) of every site at joint positions ``(nq,)``."""
+        d = self._data
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(self.model, d)
+        return d.site_xpos.copy()
+
     def log_motion(self, qpos: np.ndarray, indexes: list[rr.TimeColumn]) -> None:
         """Body poses for joint positions ``(T, nq)`` at the ``T`` times of ``indexes``."""
         pos, quat = self.body_poses(qpos)

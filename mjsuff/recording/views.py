@@ -1,7 +1,8 @@
-"""How each kind of domain is drawn in a recording: the one place recordings tell them apart.
+"""How each kind of domain is drawn in a recording.
 
 A view logs the instance once (``log_instance``) and, per demo step, the new demo and the robot's
-policy (``log_step``) under a replicate's root entity path.
+policy (``log_step``) under a replicate's root entity path. A domain's spec names its view
+(``DomainSpec.view``); the recorder never asks what kind of domain it holds.
 """
 
 from __future__ import annotations
@@ -10,7 +11,9 @@ import numpy as np
 import rerun as rr
 
 from mjsuff.domain import Demo, Domain, Policy
+from mjsuff.domains.tabular import TabularDomain
 from mjsuff.recording.scene_logger import SceneLogger
+from mjsuff.scenes.domain import SceneDomain
 
 #: Colours of up to 10 one-hot features (RGB), e.g. gridworld terrain, driving lanes.
 FEATURE_COLOURS = np.array(
@@ -56,6 +59,8 @@ class SceneView(DomainView):
     """MuJoCo scenes: geometry, each demo's executed path and motion, π_MAP's paths."""
 
     def __init__(self, domain: Domain, recording: rr.RecordingStream, root: str) -> None:
+        if not isinstance(domain, SceneDomain):
+            raise TypeError(f"SceneView draws a SceneDomain, not a {type(domain).__name__}")
         super().__init__(domain, recording, root)
         self.scene = domain.scene
         self.logger = SceneLogger(self.scene.model, recording, f"{root}/scene")
@@ -70,8 +75,7 @@ class SceneView(DomainView):
         """Framing the moving bodies and the sites (goal, pad) at the first start, from the side
         the motion is seen best: above a horizontal path, in front of a vertical one."""
         pos, _ = self.logger.body_poses(self.scene.starts[:1])
-        data = self.logger._data
-        points = np.concatenate([pos[0, 1:], data.site_xpos])
+        points = np.concatenate([pos[0, 1:], self.logger.site_positions(self.scene.starts[0])])
         low, high = points.min(axis=0), points.max(axis=0)
         target = (low + high) / 2
         radius = max(float(np.linalg.norm(high - low)) / 2, 0.2)
@@ -111,6 +115,13 @@ class SceneView(DomainView):
 
 class TabularView(DomainView):
     """Tabular domains: the grid, cells coloured by their (largest) feature, the policy as arrows."""
+
+    domain: TabularDomain
+
+    def __init__(self, domain: Domain, recording: rr.RecordingStream, root: str) -> None:
+        if not isinstance(domain, TabularDomain):
+            raise TypeError(f"TabularView draws a TabularDomain, not a {type(domain).__name__}")
+        super().__init__(domain, recording, root)
 
     def log_instance(self) -> None:
         layout = self.domain.layout
@@ -165,12 +176,3 @@ class TabularView(DomainView):
                     radii=0.05,
                 ),
             )
-
-
-def view_for(domain: Domain, recording: rr.RecordingStream, root: str) -> DomainView:
-    """The view that draws ``domain`` (a MuJoCo scene or a tabular MDP)."""
-    if hasattr(domain, "scene"):
-        return SceneView(domain, recording, root)
-    if hasattr(domain, "mdp"):
-        return TabularView(domain, recording, root)
-    return DomainView(domain, recording, root)
