@@ -20,6 +20,7 @@ from mjsuff.domain import BoundIndex, Demo, Domain, Policy
 from mjsuff.domains import get_domain
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experiment.selection import active_choice
+from mjsuff.experiment.step_row import StepRow
 from mjsuff.posterior.sampler import Posterior, sample_posterior
 from mjsuff.seeds import stream_seed
 from mjsuff.stopping import (
@@ -132,21 +133,18 @@ class _Truth:
         )
         return nevd, piob, optimality
 
-    def raise_to(self, best: np.ndarray) -> dict[str, float]:
+    def raise_to(self, best: np.ndarray) -> tuple[int, float]:
         """Raise ``V*`` per start to ``best`` ``(S,)`` where higher and rescore every policy;
         returns how often (starts raised) and by how much (largest raise, in units of that
         start's ``V* − V_rand``)."""
         raised = np.maximum(self.v_opt_starts, best)
         gain = raised - self.initial
         scale = np.maximum(self.initial - self.mu_rand @ self.domain.true_weights, 1e-12)
-        stats = {
-            "truth_raised_starts": int(np.sum(gain > 1e-12 * (1 + np.abs(self.initial)))),
-            "truth_raise": float(np.max(gain / scale, initial=0.0)),
-        }
-        if stats["truth_raised_starts"]:
+        raised_starts = int(np.sum(gain > 1e-12 * (1 + np.abs(self.initial))))
+        if raised_starts:
             self.v_opt_starts = raised
             self._cache = {key: self._score(p) for key, p in self._policies.items()}
-        return stats
+        return raised_starts, float(np.max(gain / scale, initial=0.0))
 
 
 class DemoSource(Protocol):
@@ -227,7 +225,7 @@ def run_replicate(
             posteriors[key] = (post, domain.plan(post.map_weights))
         return posteriors[key]
 
-    rows: list[dict[str, Any]] = []
+    rows: list[StepRow] = []
     scored: list[tuple[Policy, bool]] = []  # per row: the deployed policy, whether PIOB is its truth
     asked: set[int] = set()
     next_start = schedule.start(0)
@@ -273,34 +271,37 @@ def run_replicate(
             true_nevd, true_piob, optimality = truth(decision.policy)
             scored.append((decision.policy, rule.measures_improvement))
             rows.append(
-                {
-                    "replicate": replicate,
-                    "rule": rule.kind,
-                    "param": float(rule.param),
-                    "step": step,
-                    "start": start,
-                    "pool_size": pool_size,
-                    "poor_demo": poor,
-                    "bound": float(decision.bound),
-                    "true_value": true_piob if rule.measures_improvement else true_nevd,
-                    "true_nevd": true_nevd,
-                    "true_piob": true_piob,
-                    "decision": bool(decision.sufficient),
-                    "policy_optimality": optimality,
-                    "map_log_likelihood": post.map_log_likelihood,
-                    "acceptance_rate": post.acceptance_rate,
-                    "rhat": post.rhat,
-                    "ess_bulk": post.ess_bulk,
-                    "ess_tail": post.ess_tail,
-                    "bound_ess": nevd_ess,
-                    "mcmc_steps": post.steps,
-                    "converged": post.converged,
-                    "simulated_steps": simulation.get("simulated_steps", 0),
-                    "diverged_rollouts": simulation.get("diverged_rollouts", 0),
-                }
+                StepRow(
+                    replicate=replicate,
+                    rule=rule.kind,
+                    param=float(rule.param),
+                    step=step,
+                    start=start,
+                    pool_size=pool_size,
+                    poor_demo=poor,
+                    bound=float(decision.bound),
+                    true_value=true_piob if rule.measures_improvement else true_nevd,
+                    true_nevd=true_nevd,
+                    true_piob=true_piob,
+                    decision=bool(decision.sufficient),
+                    policy_optimality=optimality,
+                    map_log_likelihood=post.map_log_likelihood,
+                    acceptance_rate=post.acceptance_rate,
+                    rhat=post.rhat,
+                    ess_bulk=post.ess_bulk,
+                    ess_tail=post.ess_tail,
+                    bound_ess=nevd_ess,
+                    mcmc_steps=post.steps,
+                    converged=post.converged,
+                    simulated_steps=simulation.get("simulated_steps", 0),
+                    diverged_rollouts=simulation.get("diverged_rollouts", 0),
+                    truth_raised_starts=0,  # set when the replicate ends (the truth is raised then)
+                    truth_raise=0.0,
+                )
             )
         if observer is not None:
-            observer.step(step, demos[-1], w, nevd, post.map_weights, map_policy, rows[first_row:])
+            new_rows = [r.as_dict() for r in rows[first_row:]]
+            observer.step(step, demos[-1], w, nevd, post.map_weights, map_policy, new_rows)
         if on_step is not None:
             on_step(step, max_demos)
         if step < max_demos:
@@ -314,12 +315,7 @@ def run_replicate(
     # The truth nothing beats: raised to everything simulated under w*, every row rescored.
     stats = truth.raise_to(domain.best_simulated_start_values(domain.true_weights))
     for row, (policy, measures_improvement) in zip(rows, scored, strict=True):
-        true_nevd, true_piob, optimality = truth(policy)
-        row.update(
-            true_nevd=true_nevd,
-            true_piob=true_piob,
-            policy_optimality=optimality,
-            true_value=true_piob if measures_improvement else true_nevd,
-            **stats,
-        )
-    return rows
+        row.true_nevd, row.true_piob, row.policy_optimality = truth(policy)
+        row.true_value = row.true_piob if measures_improvement else row.true_nevd
+        row.truth_raised_starts, row.truth_raise = stats
+    return [row.as_dict() for row in rows]
