@@ -22,6 +22,7 @@ from rich.table import Table
 
 from mjsuff import __version__
 from mjsuff.bounds.hoeffding import abbeel_ng_demos, syed_schapire_demos
+from mjsuff.errors import MjsuffError
 from mjsuff.experiment.backends import BackendError, ClusterConnectionError, make_backend
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import CellResult, RunResult, run_scenario
@@ -178,7 +179,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         try:
             sources = load_recorded_demos(args.demos, scenario)
             bad_input = (DemoFileError,)
-        except (DemoFileError, ValueError) as exc:
+        except MjsuffError as exc:
             err.print(f"[red]error:[/] --demos: {exc}", highlight=False, soft_wrap=True)
             return EXIT_USAGE
     try:  # a cluster that cannot be used is found before anything is written to --out
@@ -300,6 +301,13 @@ def cmd_demos(args: argparse.Namespace) -> int:
             soft_wrap=True,
         )
         return EXIT_USAGE
+    if args.replicate < 0:
+        err.print(
+            f"[red]error:[/] --replicate: expected a replicate index ≥ 0, got {args.replicate}",
+            highlight=False,
+            soft_wrap=True,
+        )
+        return EXIT_USAGE
     if args.count is not None and args.count < 1:
         err.print(
             f"[red]error:[/] --count: expected a positive number, got {args.count}",
@@ -335,7 +343,7 @@ def cmd_demos(args: argparse.Namespace) -> int:
     try:
         with progress:
             demo_set = generate_demos(scenario, count, args.replicate, on_demo)
-    except ValueError as exc:
+    except MjsuffError as exc:
         err.print(f"[red]error:[/] {args.scenario}: {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
     elapsed = time.perf_counter() - started
@@ -374,7 +382,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     import json
 
     from mjsuff.experiment.calibration import InstanceCalibration, calibrate
-    from mjsuff.posterior.calibration import BetaFit, CalibrationError
+    from mjsuff.posterior.calibration import BetaFit
 
     scenario = _load(args)
     if scenario is None:
@@ -436,7 +444,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     try:
         with progress:
             result = calibrate(scenario, args.instances, on_instance)
-    except (CalibrationError, ValueError) as exc:
+    except MjsuffError as exc:
         err.print(f"[red]error:[/] {args.scenario}: {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
     except KeyboardInterrupt:

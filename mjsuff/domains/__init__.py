@@ -20,6 +20,7 @@ from mjsuff.domain import Domain
 from mjsuff.domains.driving import DrivingParams, make_driving
 from mjsuff.domains.gridworld import GridworldParams, make_gridworld
 from mjsuff.domains.tabular import OptimalPolicyCache, TabularDomain, TabularMDP
+from mjsuff.errors import MjsuffError
 from mjsuff.scenes.domain import make_scene_domain
 from mjsuff.scenes.lander import Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams
@@ -107,7 +108,7 @@ REGISTRY: dict[str, DomainSpec] = {
 }
 
 
-class UnknownDomainError(KeyError):
+class UnknownDomainError(MjsuffError, KeyError):
     """No domain of that name is registered or can be imported; the message is one line."""
 
     def __str__(self) -> str:

@@ -36,6 +36,7 @@ from typing import Any
 
 from threadpoolctl import threadpool_limits
 
+from mjsuff.errors import MjsuffError
 from mjsuff.experiment.replicate import DemoSource, StepCallback, run_replicate
 from mjsuff.experiment.scenario import Scenario
 
@@ -46,13 +47,15 @@ TaskProgress = Callable[["ReplicateTask", int, int], None]
 """Called as ``(task, step, max_demos)`` after each demonstration step of a task."""
 
 
-class BackendError(RuntimeError):
+class BackendError(MjsuffError, RuntimeError):
     """A backend cannot be used (e.g. Ray is not installed); the message is one line for the user."""
 
 
 class ClusterConnectionError(BackendError):
     """The Ray cluster at ``--address`` cannot be used from here: nothing answers there, or it
     refused the connection (token authentication); the message is one line saying what to do."""
+
+    exit_code = 69  # EX_UNAVAILABLE
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ import numpy as np
 
 from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domain import Demo, Domain
+from mjsuff.errors import UsageError
 from mjsuff.experiment.replicate import make_instance
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.posterior.calibration import BetaFit, fit_beta
@@ -109,10 +110,10 @@ def calibrate(
     """Fit β on ``instances`` calibration instances of ``scenario``.
 
     Raises:
-        ValueError: If ``instances`` < 1.
+        UsageError: If ``instances`` < 1.
     """
     if instances < 1:
-        raise ValueError(f"instances: expected at least 1, got {instances}")
+        raise UsageError(f"--instances: expected at least 1, got {instances}")
     curves: list[Callable[[float], float]] = []
     results: list[InstanceCalibration] = []
     for i in range(instances):

@@ -28,6 +28,8 @@ from typing import Any
 
 import pandas as pd
 
+from mjsuff.errors import MjsuffError
+
 
 def _file_mode() -> int:
     """Mode of a new file under the process umask (temporary files are created 0600)."""
@@ -39,7 +41,7 @@ def _file_mode() -> int:
 FILE_MODE = _file_mode()
 
 
-class OutputError(OSError):
+class OutputError(MjsuffError, OSError):
     """The output directory cannot be used; the message is one line for the user."""
 
 

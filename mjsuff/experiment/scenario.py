@@ -21,11 +21,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from mjsuff.bounds.var_bound import QuantileMethod, least_effective_size
 from mjsuff.domains import REGISTRY, UnknownDomainError, get_domain
+from mjsuff.errors import MjsuffError
 from mjsuff.package_data import data_dir
 from mjsuff.posterior.sampler import SamplerConfig
 
 
-class ScenarioError(ValueError):
+class ScenarioError(MjsuffError, ValueError):
     """A scenario file or override that cannot be used; the message is one line for the user."""
 
 

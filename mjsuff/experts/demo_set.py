@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from mjsuff.errors import MjsuffError
+
 FORMAT_VERSION = 1
 ARRAYS = (
     "start_index",
@@ -39,7 +41,7 @@ ARRAYS = (
 )
 
 
-class DemoFileError(ValueError):
+class DemoFileError(MjsuffError, ValueError):
     """A demo-set file that cannot be used; the message names the file and what is wrong."""
 
 

@@ -17,7 +17,7 @@ from pydantic import BaseModel
 from mjsuff import __version__
 from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domains import REGISTRY, get_domain
-from mjsuff.experiment.scenario import Scenario
+from mjsuff.experiment.scenario import Scenario, ScenarioError
 from mjsuff.experts.demo_set import DemoSet
 from mjsuff.experts.expert import Expert, ExpertDemo
 from mjsuff.scenes.domain import draw_instance
@@ -32,7 +32,7 @@ def scene_parts(name: str) -> tuple[type[Scene], type[Expert]]:
     spec = get_domain(name)
     if spec.scene is None or spec.expert is None:
         scenes = sorted(n for n, s in REGISTRY.items() if s.kind == "scene")
-        raise ValueError(f"domain.name: demos are generated for the MuJoCo scenes {scenes}, not {name!r}")
+        raise ScenarioError(f"domain.name: demos are generated for the MuJoCo scenes {scenes}, not {name!r}")
     return spec.scene, spec.expert()
 
 

@@ -17,13 +17,15 @@ from dataclasses import dataclass
 
 from scipy.optimize import minimize_scalar
 
+from mjsuff.errors import MjsuffError
+
 #: Search range for β.
 BETA_RANGE = (0.01, 1000.0)
 #: Log-likelihood difference below which the upper end of the range counts as the maximum.
 PLATEAU = 1e-6
 
 
-class CalibrationError(ValueError):
+class CalibrationError(MjsuffError, ValueError):
     """The log-likelihood cannot be fitted (not finite over the search range)."""
 
 

@@ -15,10 +15,11 @@ from typing import Any
 
 import pandas as pd
 
+from mjsuff.errors import MjsuffError
 from mjsuff.experiment.scenario import flat_keys
 
 
-class ReportError(ValueError):
+class ReportError(MjsuffError, ValueError):
     """A directory that cannot be reported on; the message is one line for the user."""
 
 
