@@ -458,7 +458,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         soft_wrap=True,
     )
     if args.json:
-        from mjsuff.experiment.results import atomic_write_text
+        from mjsuff.atomic import atomic_write_text
 
         payload = {"scenario": str(args.scenario), "seed": scenario.seed, **result.to_dict()}
         try:

@@ -11,9 +11,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from mjsuff.atomic import FILE_MODE
 from mjsuff.cli import _fmt, main
 from mjsuff.experiment import backends
-from mjsuff.experiment.results import FILE_MODE, OutputError
+from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import RECORDING, run_scenario
 from mjsuff.recording import Recording
 from tests.conftest import small_scenario

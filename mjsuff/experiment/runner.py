@@ -27,14 +27,12 @@ import numpy as np
 import pandas as pd
 
 from mjsuff import __version__
+from mjsuff.atomic import atomic_write_bytes, atomic_write_parquet, atomic_write_text
 from mjsuff.experiment.backends import Backend, ReplicateTask, SerialBackend
 from mjsuff.experiment.measures import sampler_diagnostics, summarize
 from mjsuff.experiment.replicate import DemoSource
 from mjsuff.experiment.results import (
     OutputError,
-    atomic_write_bytes,
-    atomic_write_parquet,
-    atomic_write_text,
     prepare_output,
     read_steps,
     replicate_path,

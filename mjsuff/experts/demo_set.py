@@ -15,8 +15,6 @@ rename), so an interrupted write never leaves a half-written demo set.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from mjsuff.atomic import atomic_write
 from mjsuff.errors import MjsuffError
 
 FORMAT_VERSION = 1
@@ -64,13 +63,13 @@ class DemoSet:
             path = path.with_suffix(".npz")
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = json.dumps({**self.meta, "format_version": FORMAT_VERSION})
-        _atomic(path, lambda f: np.savez_compressed(f, meta=np.array(meta), **self.arrays))
+        atomic_write(path, lambda f: np.savez_compressed(f, meta=np.array(meta), **self.arrays))
         if self.true_weights is not None:
             truth = {
                 "true_weights": self.true_weights.tolist(),
                 "values": None if self.values is None else self.values.tolist(),
             }
-            _atomic(truth_path(path), lambda f: f.write(json.dumps(truth, indent=1).encode()))
+            atomic_write(truth_path(path), lambda f: f.write(json.dumps(truth, indent=1).encode()))
         return path
 
 
@@ -78,18 +77,6 @@ def truth_path(path: str | Path) -> Path:
     """Where the true weights of demo set ``path`` are kept."""
     path = Path(path)
     return path.with_name(path.stem + ".truth.json")
-
-
-def _atomic(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def load_demo_set(path: str | Path, expect: dict[str, Any] | None = None, truth: bool = False) -> DemoSet:

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from mjsuff.atomic import atomic_write_text
 from mjsuff.experiment.measures import measure_group, sampler_diagnostics
-from mjsuff.experiment.results import atomic_write_text
 from mjsuff.report.figures import (
     NAMES,
     bound_curve,
