@@ -171,7 +171,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     except BackendError as exc:
         err.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
-    sources, bad_input = None, ()
+    sources = None
+    bad_input: tuple[type[Exception], ...] = ()
     if args.demos:
         from mjsuff.experts.demo_set import DemoFileError
         from mjsuff.experts.recorded import load_recorded_demos  # mink only when asked for

@@ -1,6 +1,7 @@
-"""Hygiene is part of the suite (issue #18): the code passes ruff's lint rules and its formatter.
+"""Hygiene is part of the suite (issue #18): the code passes ruff's lint rules and its formatter,
+and mypy (with the pydantic plugin; ``[tool.mypy]`` in pyproject.toml) finds no error in the package.
 
-ruff is pinned in the ``test`` extra, since its formatter's style changes between releases.
+ruff and mypy are pinned in the ``test`` extra, since their rules change between releases.
 """
 
 from __future__ import annotations
@@ -18,5 +19,16 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_ruff_passes(command: list[str]) -> None:
     result = subprocess.run(
         [sys.executable, "-m", "ruff", *command, "."], cwd=ROOT, capture_output=True, text=True, check=False
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_mypy_finds_no_error(tmp_path: Path) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "mypy", "--cache-dir", str(tmp_path / "cache")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr

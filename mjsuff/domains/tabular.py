@@ -210,6 +210,7 @@ class OptimalPolicyCache:
             )
         if pending.size:
             w = weights[pending]
+            assert start is not None  # set wherever pending is non-empty
             policies, q_new, successors = self._policy_iteration(w, start)
             q[pending] = q_new
             values[pending] = np.einsum("rsk,rk->rs", successors, w)

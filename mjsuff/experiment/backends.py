@@ -234,6 +234,8 @@ class LocalBackend(Backend):
         stop = threading.Event()
 
         def drain() -> None:
+            if events is None or on_step is None:
+                return
             while not stop.is_set():
                 try:
                     key, step, max_demos = events.get(timeout=0.1)

@@ -75,7 +75,8 @@ class Reference:
         cumulative probability reaches ``prob``."""
         order = np.argsort(values, kind="stable")
         cumulative = np.cumsum(self.probabilities[order])
-        return float(values[order][min(np.searchsorted(cumulative, prob), len(values) - 1)])
+        index = min(int(np.searchsorted(cumulative, prob)), len(values) - 1)
+        return float(values[order][index])
 
     def map_point(self) -> np.ndarray:
         return self.points[int(np.argmax(self.probabilities))]

@@ -18,7 +18,7 @@ import platform
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -259,7 +259,7 @@ def run_scenario(
     directory: Path,
     overwrite: bool = False,
     progress: ProgressCallback | None = None,
-    demo_sources: dict[int, DemoSource] | None = None,
+    demo_sources: Mapping[int, DemoSource] | None = None,
     record: bool = True,
     backend: Backend | None = None,
     resume: bool = False,

@@ -18,6 +18,7 @@ from typing import Annotated, Any, Literal
 
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic_core import ErrorDetails
 
 from mjsuff.bounds.var_bound import QuantileMethod, least_effective_size
 from mjsuff.domains import REGISTRY, UnknownDomainError, get_domain
@@ -206,7 +207,7 @@ class SweepCell:
         return re.sub(r"[^A-Za-z0-9_.=+-]", "-", name)
 
 
-def _error_key(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
+def _error_key(error: ErrorDetails, prefix: tuple[Any, ...] = ()) -> str:
     """The dotted key an error is about: its location, and for a model's own check the key its
     message starts with (``"max_steps: ..."`` inside ``posterior`` is ``posterior.max_steps``)."""
     parts = [str(p) for p in (*prefix, *error["loc"])]
@@ -219,7 +220,7 @@ def _error_key(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
     return ".".join(parts)
 
 
-def _describe(error: dict[str, Any], prefix: tuple[Any, ...] = ()) -> str:
+def _describe(error: ErrorDetails, prefix: tuple[Any, ...] = ()) -> str:
     loc = ".".join(str(p) for p in (*prefix, *error["loc"]))
     if error["type"] == "value_error":
         message = error["msg"].removeprefix("Value error, ")
@@ -255,7 +256,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
     return data
 
 
-def _origin(source: str, error: dict[str, Any], prefix: tuple[Any, ...], overridden: set[str]) -> str:
+def _origin(source: str, error: ErrorDetails, prefix: tuple[Any, ...], overridden: set[str]) -> str:
     """``source``, or ``source (--set KEY)`` when the offending key came from an override."""
     dotted = _error_key(error, prefix)
     for key in sorted(overridden, key=len, reverse=True):

@@ -63,7 +63,9 @@ class DemoSet:
             path = path.with_suffix(".npz")
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = json.dumps({**self.meta, "format_version": FORMAT_VERSION})
-        atomic_write(path, lambda f: np.savez_compressed(f, meta=np.array(meta), **self.arrays))
+        # numpy's stubs type savez's **kwds as its allow_pickle flag; they are arrays.
+        arrays: dict[str, Any] = {"meta": np.array(meta), **self.arrays}
+        atomic_write(path, lambda f: np.savez_compressed(f, **arrays))
         if self.true_weights is not None:
             truth = {
                 "true_weights": self.true_weights.tolist(),

@@ -205,6 +205,8 @@ class Expert(abc.ABC):
             p = np.exp(logits)
             pick = int(rng.choice(usable, p=p / p.sum()))
         chosen, j = where[pick]
+        if chosen.rollouts is None:
+            raise ExpertError("the chosen candidate was never executed")
         qpos, qvel, controls = chosen.rollouts.qpos[j], chosen.rollouts.qvel[j], chosen.rollouts.controls[j]
         features, executed, error = chosen.features[j], chosen.executed[j], float(chosen.tracking_error[j])
         value, corrections = float(values[pick]), 0

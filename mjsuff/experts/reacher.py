@@ -106,9 +106,9 @@ class ReacherExpert(Expert):
             knots.append(fit @ (q - basis[:, :1] * np.asarray(start_qpos)[None]))
         if not kept:
             return ExecutedPaths.empty(), failures
-        knots = spline.clip(np.array(knots))
-        rollouts, features = self.scene.simulate(np.asarray(start_qpos), knots)
+        fitted = spline.clip(np.array(knots))
+        rollouts, features = self.scene.simulate(np.asarray(start_qpos), fitted)
         intended = np.array(paths)[:, :, :2]
         executed = self.task_path(rollouts.qpos)  # after each step, aligned with the intended path
         error = np.linalg.norm(executed - intended, axis=2).max(axis=1)
-        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error, knots), failures
+        return ExecutedPaths(np.array(kept), intended, executed, rollouts, features, error, fitted), failures

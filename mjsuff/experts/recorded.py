@@ -8,6 +8,7 @@ takes the file's next unused demo from that start, so a passive run reproduces t
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,7 @@ class RecordedDemos:
 _NOT_DEMO_SETTINGS = ("planning", "expert", "candidates", "unchanged_tolerance", "match_tolerance")
 
 
-def _demo_settings(params: dict, expert: dict, noise: float) -> dict:
+def _demo_settings(params: dict[str, Any], expert: Any, noise: Any) -> dict[str, Any]:
     """What shapes the demos besides the instance."""
     return {
         "scene_params": {k: v for k, v in params.items() if k not in _NOT_DEMO_SETTINGS},

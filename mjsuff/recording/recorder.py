@@ -15,6 +15,7 @@ trajectories back, the ``sim_time`` timeline:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +39,7 @@ def blueprint(
     ``eye`` (position, look target) places the scene camera."""
     root = f"/r{replicate}"
     kinds = ("nevd", "piob", "patience", "validation")
-    params = {"nevd": [], "piob": [], "patience": [], "validation": []}
+    params: dict[str, Sequence[float]] = {"nevd": [], "piob": [], "patience": [], "validation": []}
     if scenario is not None:
         rules = scenario.rules
         params = {

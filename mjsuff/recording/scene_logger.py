@@ -114,7 +114,11 @@ class SceneLogger:
                 if shape is None:
                     continue
                 path = f"{self.body_paths[body]}/{prefix}{_name(m, obj, i, '')}"
-                rec.log(path, rr.Transform3D(translation=pos, quaternion=wxyz_to_xyzw(quat)), static=True)
+                rec.log(
+                    path,
+                    rr.Transform3D(translation=pos, quaternion=rr.Quaternion(xyzw=wxyz_to_xyzw(quat))),
+                    static=True,
+                )
                 rec.log(path, shape, static=True)
 
     def body_poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -57,8 +57,8 @@ def f1_with_se(codes: np.ndarray, rng: np.random.Generator) -> tuple[float, floa
         den = tp + 0.5 * (fp + fn)
         return tp / den if den else math.nan
 
-    boot = [f1(codes[rng.integers(0, codes.size, codes.size)]) for _ in range(BOOTSTRAP)]
-    boot = np.array([b for b in boot if not math.isnan(b)])
+    draws = [f1(codes[rng.integers(0, codes.size, codes.size)]) for _ in range(BOOTSTRAP)]
+    boot = np.array([b for b in draws if not math.isnan(b)])
     return f1(codes), float(boot.std(ddof=1)) if boot.size > 1 else math.nan
 
 

@@ -64,7 +64,8 @@ from __future__ import annotations
 
 import copy
 import zlib
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from scipy.special import logsumexp
@@ -180,20 +181,20 @@ class SceneDomain(Domain):
         _, feats = scene.simulate(np.repeat(scene.all_starts, RANDOM_TRAJECTORIES, axis=0), knots)
         feats = feats.reshape(s + p, RANDOM_TRAJECTORIES, k)
         knots = knots.reshape(s + p, RANDOM_TRAJECTORIES, *scene.spline.shape)
-        for i in everywhere:
-            self.library.add(int(i), feats[i], knots[i])
+        for i in range(s + p):
+            self.library.add(i, feats[i], knots[i])
         self._random_features = feats
         if expert is None:
             raise ValueError(
                 "a SceneDomain needs its expert: the random policy is random paths "
                 "of the demonstrator's family (build it with make_scene_domain)"
             )
-        for i in everywhere:  # the scene's own reward-agnostic primitives
+        for i in range(s + p):  # the scene's own reward-agnostic primitives
             knots = scene.primitive_knots(scene.all_starts[i])
             if len(knots):
                 _, feats = scene.simulate(scene.all_starts[i][None], knots)
                 self.library.add(int(i), feats, knots)
-        for i in everywhere:  # the demonstrator's path family, where it is in the robot's class
+        for i in range(s + p):  # the demonstrator's path family, where it is in the robot's class
             done, _ = expert.execute(scene.all_starts[i], expert.primitives(scene.all_starts[i]))
             if done.knots is not None and len(done.knots):
                 self.library.add(int(i), done.features, done.knots)
@@ -296,7 +297,7 @@ class SceneDomain(Domain):
         before, idle = (best() if until_converged else None), 0
         for _ in range(rounds):
             polish(self.scene, library, starts, weights, self.planning.polish_neighbours)
-            if until_converged:
+            if before is not None:  # until_converged
                 after = best()
                 idle = idle + 1 if np.all(after <= before + 1e-12 * (1.0 + np.abs(before))) else 0
                 if idle == 2:  # two rounds in a row improved no problem
@@ -310,7 +311,9 @@ class SceneDomain(Domain):
             self._features[key] = features
         return self._features[key]
 
-    def pool_features(self, policy: np.ndarray, entries: np.ndarray | None = None) -> np.ndarray:
+    def pool_features(
+        self, policy: np.ndarray, entries: Sequence[int] | np.ndarray | None = None
+    ) -> np.ndarray:
         """Features ``(P, k)`` of the policy's trajectories from the demonstration pool: the same
         planner for the reward the policy was planned for, from each pool start. Only the pool
         entries in ``entries`` (default: all) are planned, each once per policy (cached); rows of
@@ -637,7 +640,8 @@ def draw_instance(
 ) -> tuple[Scene, np.ndarray]:
     """A scene instance and its hidden weights ``w*``, drawn from ``rng`` in that order: every
     builder of a run's instance (``make_scene_domain``, ``mjsuff demos``, the suite) draws it here."""
-    scene = scene_type(params, rng, threads)
+    make = cast(Callable[..., Scene], scene_type)  # every scene takes (params, rng, threads)
+    scene = make(params, rng, threads)
     return scene, draw_true_weights(rng, scene.num_features)
 
 

@@ -153,7 +153,7 @@ class Lander(Scene):
     def touchdown(self, rollouts: Rollouts) -> tuple[np.ndarray, np.ndarray]:
         """Whether each trajectory touches down, and the first step it does (0 if never)."""
         touching = (rollouts.sensordata[:, :, :2] > TOUCH_THRESHOLD).any(axis=2)
-        return touching.any(axis=1), touching.argmax(axis=1)
+        return np.any(touching, axis=1), np.argmax(touching, axis=1)
 
     def step_features(self, rollouts: Rollouts, horizon: int | None = None) -> np.ndarray:
         """Fuel, tilt and the zones are shared over the horizon's steps (their sum is the mean);

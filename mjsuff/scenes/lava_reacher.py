@@ -87,7 +87,9 @@ def fingertip_xy(qpos: np.ndarray) -> np.ndarray:
     return LINK * np.stack([np.cos(angles).sum(-1), np.sin(angles).sum(-1)], axis=-1)
 
 
-def inverse_kinematics(tip: np.ndarray, tool_angle: np.ndarray, elbow: np.ndarray) -> np.ndarray:
+def inverse_kinematics(
+    tip: np.ndarray, tool_angle: np.ndarray | float, elbow: np.ndarray | float
+) -> np.ndarray:
     """Joint angles ``(..., 3)`` that put the fingertip at ``tip`` ``(..., 2)`` with the last link
     at ``tool_angle`` (rad, world frame) and the elbow on side ``elbow`` (±1); NaN where out of
     reach or out of the joint ranges."""

@@ -48,14 +48,15 @@ class TrajectoryLibrary:
 
     def arrays(self, start: int) -> tuple[np.ndarray, np.ndarray]:
         """All features ``(n, k)`` and knots ``(n, K, nu)`` from ``start``."""
-        if self._packed[start] is None:
+        packed = self._packed[start]
+        if packed is None:
             if not self._features[start]:
                 return np.empty((0, self.num_features)), np.empty((0, *self.knot_shape))
             features = np.concatenate(self._features[start])
             knots = np.concatenate(self._knots[start])
             self._features[start], self._knots[start] = [features], [knots]
-            self._packed[start] = (features, knots)
-        return self._packed[start]
+            packed = self._packed[start] = (features, knots)
+        return packed
 
     def best_value(self, start: int, weights: np.ndarray) -> np.ndarray:
         """Best value ``(N,)`` over every entry from ``start``, feature-only ones included."""

@@ -27,11 +27,12 @@ class ValidationSetRule(StoppingRule):
         if min_held_out < 1:
             raise ValueError(f"min_held_out must be >= 1, got {min_held_out}")
         self.param = interval
+        self.interval = interval
         self.min_held_out = min_held_out
 
     def held_out(self, num_demos: int) -> frozenset[int]:
         """Indices of the held-out demos among the first ``num_demos``."""
-        return frozenset(range(self.param - 1, num_demos, self.param))
+        return frozenset(range(self.interval - 1, num_demos, self.interval))
 
     def decide(self, evidence: Evidence) -> Decision:
         held = self.held_out(len(evidence.demos))
