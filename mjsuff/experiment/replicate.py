@@ -18,7 +18,7 @@ from mjsuff.bounds.var_bound import QuantileMethod, lower_var_bound, upper_var_b
 from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domain import BoundIndex, Demo, Domain, Policy
 from mjsuff.domains import get_domain
-from mjsuff.experiment.scenario import Scenario
+from mjsuff.experiment.scenario import Scenario, SufficiencySettings
 from mjsuff.experiment.selection import active_choice
 from mjsuff.experiment.step_row import StepRow
 from mjsuff.posterior.sampler import Posterior, sample_posterior
@@ -170,6 +170,125 @@ class ReplicateObserver(Protocol):
     ) -> None: ...
 
 
+class _Posteriors:
+    """The posteriors of one step of a replicate, per held-out set of demos (paper Alg. 1).
+
+    The full posterior (nothing held out) is sampled until converged; a held-out posterior (the
+    validation baseline) only serves its MAP, so it keeps one sample per chain from one round.
+    Chains start near the step before's posterior given the same held-out set.
+    """
+
+    def __init__(self, scenario: Scenario, replicate: int, domain: Domain, demos: list[Demo]) -> None:
+        self.seed, self.replicate, self.beta = scenario.seed, replicate, scenario.demos.beta
+        self.domain, self.demos = domain, demos
+        self.sampler = scenario.sampler()
+        chains = self.sampler.chains
+        self.map_only = self.sampler.model_copy(update={"num_samples": chains * -(-10 // chains)})
+        self._current: dict[frozenset[int], tuple[Posterior, Policy]] = {}
+        self._previous: dict[frozenset[int], np.ndarray] = {}
+
+    def next_step(self) -> None:
+        """A demo was added: this step's posteriors become the next step's chain starts."""
+        self._previous = {key: post.samples for key, (post, _) in self._current.items()}
+        self._current.clear()
+
+    def excluding(self, excluded: frozenset[int]) -> tuple[Posterior, Policy]:
+        """The posterior given every demo but ``excluded`` (indices), and its MAP's policy."""
+        key = frozenset(excluded)
+        if key not in self._current:
+            domain, n = self.domain, len(self.demos)
+            used = [d for j, d in enumerate(self.demos) if j not in key]
+            rng = np.random.default_rng(stream_seed(self.seed, self.replicate, "mcmc", n, *sorted(key)))
+            settings = self.sampler if not key else self.map_only
+            initial = self._previous.get(key)
+            if initial is None and not domain.uniform_prior:  # start the chains in the support
+                initial = domain.sample_prior(rng, 4 * settings.chains)
+            post = sample_posterior(
+                lambda w: domain.log_prior(w) + domain.log_likelihood(w, used, self.beta),
+                domain.num_features,
+                settings,
+                rng,
+                initial=initial,
+                until_converged=not key,
+            )
+            self._current[key] = (post, domain.plan(post.map_weights))
+        return self._current[key]
+
+
+def per_sample_regrets(
+    domain: Domain,
+    post: Posterior,
+    map_policy: Policy,
+    suff: SufficiencySettings,
+    mu_rand: np.ndarray,
+    mu_base: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """nEVD (Eq. 4) and PIOB (Eq. 6) of ``map_policy`` under every posterior sample ``(N,)``;
+    V* is refined toward the order statistic the nEVD bound takes."""
+    w, sw = post.samples, domain.start_weights
+    mu_robot = domain.start_feature_expectations(map_policy)
+    v_opt_starts = domain.optimal_start_values(
+        w,
+        robot=mu_robot,
+        bound_index=nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method),
+    )
+    v_robot = policy_values(w, mu_robot, sw)
+    nevd = normalized_evd(v_opt_starts @ sw, v_robot, policy_values(w, mu_rand, sw))
+    piob = percent_improvement(v_robot, policy_values(w, mu_base, sw))
+    return nevd, piob
+
+
+def _posterior_columns(post: Posterior, bound_ess: float) -> dict[str, Any]:
+    """The posterior's diagnostics, as ``StepRow`` fields."""
+    return {
+        "map_log_likelihood": post.map_log_likelihood,
+        "acceptance_rate": post.acceptance_rate,
+        "rhat": post.rhat,
+        "ess_bulk": post.ess_bulk,
+        "ess_tail": post.ess_tail,
+        "bound_ess": bound_ess,
+        "mcmc_steps": post.steps,
+        "converged": post.converged,
+    }
+
+
+def _simulation_columns(domain: Domain) -> dict[str, int]:
+    """The simulation behind the instance so far (``Domain.simulation_stats``), as ``StepRow``
+    fields; 0 for exact domains."""
+    stats = domain.simulation_stats()
+    return {name: stats.get(name, 0) for name in ("simulated_steps", "diverged_rollouts")}
+
+
+def _decide(
+    rules: list[StoppingRule],
+    evidence: Evidence,
+    truth: _Truth,
+    shared: dict[str, Any],
+    scored: list[tuple[Policy, bool]],
+) -> list[StepRow]:
+    """Every rule's decision on ``evidence`` as a row, with the truth of the policy it would
+    deploy; ``shared`` holds the step's other columns. Each deployed policy joins ``scored``."""
+    rows = []
+    for rule in rules:
+        decision = rule.decide(evidence)
+        true_nevd, true_piob, optimality = truth(decision.policy)
+        scored.append((decision.policy, rule.measures_improvement))
+        rows.append(
+            StepRow(
+                rule=rule.kind,
+                param=float(rule.param),
+                bound=float(decision.bound),
+                true_value=true_piob if rule.measures_improvement else true_nevd,
+                true_nevd=true_nevd,
+                true_piob=true_piob,
+                decision=bool(decision.sufficient),
+                policy_optimality=optimality,
+                **shared,
+            )
+        )
+    return rows
+
+
 def run_replicate(
     scenario: Scenario,
     replicate: int,
@@ -189,69 +308,25 @@ def run_replicate(
     rules = build_rules(scenario)
     for rule in rules:
         rule.reset()
-    cfg, suff = scenario.demos, scenario.sufficiency
+    suff = scenario.sufficiency
     pool_size = domain.pool.size
     schedule = demo_schedule(scenario, replicate, pool_size)
-    max_demos = schedule.budget
     truth = _Truth(domain)
-    sw = domain.start_weights
     mu_rand = domain.random_start_feature_expectations()
     mu_base = domain.baseline_start_feature_expectations()
-
-    sampler = scenario.sampler()
-    map_only = sampler.model_copy(update={"num_samples": sampler.chains * -(-10 // sampler.chains)})
     demos: list[Demo] = []
-    posteriors: dict[frozenset[int], tuple[Posterior, Policy]] = {}
-
-    def posterior_excluding(excluded: frozenset[int]) -> tuple[Posterior, Policy]:
-        n = len(demos)
-        key = frozenset(excluded)
-        if key not in posteriors:
-            used = [d for j, d in enumerate(demos) if j not in key]
-            rng = np.random.default_rng(stream_seed(scenario.seed, replicate, "mcmc", n, *sorted(key)))
-            # Held-out posteriors only serve their MAP: keep one sample per chain, one round.
-            settings = sampler if not key else map_only
-            initial = previous.get(key)
-            if initial is None and not domain.uniform_prior:  # start the chains in the support
-                initial = domain.sample_prior(rng, 4 * settings.chains)
-            post = sample_posterior(
-                lambda w: domain.log_prior(w) + domain.log_likelihood(w, used, cfg.beta),
-                domain.num_features,
-                settings,
-                rng,
-                initial=initial,
-                until_converged=not key,
-            )
-            posteriors[key] = (post, domain.plan(post.map_weights))
-        return posteriors[key]
+    posteriors = _Posteriors(scenario, replicate, domain, demos)
 
     rows: list[StepRow] = []
     scored: list[tuple[Policy, bool]] = []  # per row: the deployed policy, whether PIOB is its truth
     asked: set[int] = set()
-    next_start = schedule.start(0)
-    previous: dict[frozenset[int], np.ndarray] = {}
-    for step in range(1, max_demos + 1):
-        # Chains start near the posterior of the step before given the same held-out set.
-        previous = {key: post.samples for key, (post, _) in posteriors.items()}
-        posteriors.clear()
-        start = next_start
+    start = schedule.start(0)
+    for step in range(1, schedule.budget + 1):
+        posteriors.next_step()
         asked.add(start)
-        poor = schedule.next_is_poor()
-        demos.append(source.demonstrate(start, schedule.rng, poor=poor))
-        poor = demos[-1].poor
-
-        post, map_policy = posterior_excluding(frozenset())
-        w = post.samples
-        mu_robot = domain.start_feature_expectations(map_policy)
-        v_opt_starts = domain.optimal_start_values(
-            w,
-            robot=mu_robot,
-            bound_index=nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method),
-        )
-        v_opt = v_opt_starts @ sw
-        v_robot = policy_values(w, mu_robot, sw)
-        nevd = normalized_evd(v_opt, v_robot, policy_values(w, mu_rand, sw))
-        piob = percent_improvement(v_robot, policy_values(w, mu_base, sw))
+        demos.append(source.demonstrate(start, schedule.rng, poor=schedule.next_is_poor()))
+        post, map_policy = posteriors.excluding(frozenset())
+        nevd, piob = per_sample_regrets(domain, post, map_policy, suff, mu_rand, mu_base)
         nevd_bound, piob_bound, nevd_ess = posterior_bounds(
             post, nevd, piob, suff.alpha, suff.delta, suff.quantile_method
         )
@@ -261,61 +336,37 @@ def run_replicate(
             map_policy,
             nevd_bound,
             piob_bound,
-            lambda ex: posterior_excluding(ex)[1],
+            lambda ex: posteriors.excluding(ex)[1],
             post.converged,
         )
-        first_row = len(rows)
-        simulation = domain.simulation_stats()
-        for rule in rules:
-            decision = rule.decide(evidence)
-            true_nevd, true_piob, optimality = truth(decision.policy)
-            scored.append((decision.policy, rule.measures_improvement))
-            rows.append(
-                StepRow(
-                    replicate=replicate,
-                    rule=rule.kind,
-                    param=float(rule.param),
-                    step=step,
-                    start=start,
-                    pool_size=pool_size,
-                    poor_demo=poor,
-                    bound=float(decision.bound),
-                    true_value=true_piob if rule.measures_improvement else true_nevd,
-                    true_nevd=true_nevd,
-                    true_piob=true_piob,
-                    decision=bool(decision.sufficient),
-                    policy_optimality=optimality,
-                    map_log_likelihood=post.map_log_likelihood,
-                    acceptance_rate=post.acceptance_rate,
-                    rhat=post.rhat,
-                    ess_bulk=post.ess_bulk,
-                    ess_tail=post.ess_tail,
-                    bound_ess=nevd_ess,
-                    mcmc_steps=post.steps,
-                    converged=post.converged,
-                    simulated_steps=simulation.get("simulated_steps", 0),
-                    diverged_rollouts=simulation.get("diverged_rollouts", 0),
-                    truth_raised_starts=0,  # set when the replicate ends (the truth is raised then)
-                    truth_raise=0.0,
-                )
-            )
+        shared = {
+            "replicate": replicate,
+            "step": step,
+            "start": start,
+            "pool_size": pool_size,
+            "poor_demo": demos[-1].poor,
+            **_posterior_columns(post, nevd_ess),
+            **_simulation_columns(domain),
+            "truth_raised_starts": 0,  # set when the replicate ends (the truth is raised then)
+            "truth_raise": 0.0,
+        }
+        step_rows = _decide(rules, evidence, truth, shared, scored)
+        rows += step_rows
         if observer is not None:
-            new_rows = [r.as_dict() for r in rows[first_row:]]
-            observer.step(step, demos[-1], w, nevd, post.map_weights, map_policy, new_rows)
+            new_rows = [r.as_dict() for r in step_rows]
+            observer.step(step, demos[-1], post.samples, nevd, post.map_weights, map_policy, new_rows)
         if on_step is not None:
-            on_step(step, max_demos)
-        if step < max_demos:
-            if cfg.selection == "active":
-                pool_evd = domain.pool_regrets(w, map_policy)
-                next_start = active_choice(
-                    pool_evd, asked, suff.alpha, suff.delta, suff.quantile_method, nevd_ess
-                )
+            on_step(step, schedule.budget)
+        if step < schedule.budget:
+            if scenario.demos.selection == "active":
+                pool_evd = domain.pool_regrets(post.samples, map_policy)
+                start = active_choice(pool_evd, asked, suff.alpha, suff.delta, suff.quantile_method, nevd_ess)
             else:
-                next_start = schedule.start(step)
+                start = schedule.start(step)
     # The truth nothing beats: raised to everything simulated under w*, every row rescored.
-    stats = truth.raise_to(domain.best_simulated_start_values(domain.true_weights))
+    raised = truth.raise_to(domain.best_simulated_start_values(domain.true_weights))
     for row, (policy, measures_improvement) in zip(rows, scored, strict=True):
         row.true_nevd, row.true_piob, row.policy_optimality = truth(policy)
         row.true_value = row.true_piob if measures_improvement else row.true_nevd
-        row.truth_raised_starts, row.truth_raise = stats
+        row.truth_raised_starts, row.truth_raise = raised
     return [row.as_dict() for row in rows]
