@@ -254,6 +254,65 @@ def _cell_directory(directory: Path, cell: SweepCell, sweep: bool) -> Path:
     return directory / "cells" / cell.dirname if sweep else directory
 
 
+def _check_demo_sources(
+    directory: Path, sweep: bool, resume: bool, demo_sources: Mapping[int, DemoSource] | None
+) -> None:
+    """Saved demos serve one run from its start: not a sweep, not a resumed run."""
+    if sweep and demo_sources:
+        raise OutputError(f"{directory}: saved demos (--demos) cannot be used with a sweep")
+    if resume and demo_sources:
+        raise OutputError(
+            f"{directory}: --resume cannot be combined with --demos (nothing "
+            "records which demo files the first part of the run used)"
+        )
+
+
+def _plan_tasks(
+    directory: Path,
+    scenario: Scenario,
+    cells: list[SweepCell],
+    record: bool,
+    demo_sources: Mapping[int, DemoSource] | None,
+) -> tuple[list[ReplicateTask], int]:
+    """Make every cell's directories and list the replicates still to run, with how many are
+    finished already (a resumed run keeps those)."""
+    sweep = bool(scenario.sweep)
+    tasks: list[ReplicateTask] = []
+    finished = 0
+    for cell in cells:
+        cell_dir = _cell_directory(directory, cell, sweep)
+        (cell_dir / "replicates").mkdir(parents=True, exist_ok=True)
+        if sweep:
+            atomic_write_text(cell_dir / "config.toml", cell.scenario.to_toml())
+        if record:
+            (cell_dir / RECORDINGS).mkdir(exist_ok=True)
+        for replicate in range(scenario.replicates):
+            if replicate_path(cell_dir, replicate).exists():
+                finished += 1
+                continue
+            source = (demo_sources or {}).get(replicate)
+            tasks.append(ReplicateTask((cell.index, replicate), cell.scenario, replicate, source, record))
+    return tasks, finished
+
+
+def _write_sweep_json(directory: Path, scenario: Scenario, cells: list[SweepCell]) -> None:
+    """``sweep.json``: the swept keys, and each cell's labels and directory."""
+    write_json(
+        directory / "sweep.json",
+        {
+            "keys": list(scenario.sweep),
+            "cells": [
+                {
+                    "index": c.index,
+                    "labels": c.labels,
+                    "directory": str(_cell_directory(directory, c, True).relative_to(directory)),
+                }
+                for c in cells
+            ],
+        },
+    )
+
+
 def run_scenario(
     scenario: Scenario,
     directory: Path,
@@ -282,54 +341,14 @@ def run_scenario(
     backend = backend or SerialBackend()
     cells = scenario.cells()
     sweep = bool(scenario.sweep)
-    if sweep and demo_sources:
-        raise OutputError(f"{directory}: saved demos (--demos) cannot be used with a sweep")
-    if resume and demo_sources:
-        raise OutputError(
-            f"{directory}: --resume cannot be combined with --demos (nothing "
-            "records which demo files the first part of the run used)"
-        )
+    _check_demo_sources(directory, sweep, resume, demo_sources)
     if resume:
         check_resumable(directory, scenario, record)
     prepare_output(directory, overwrite, resume)
     atomic_write_text(directory / "config.toml", scenario.to_toml())
-    tasks: list[ReplicateTask] = []
-    finished = 0
-    for cell in cells:
-        cell_dir = _cell_directory(directory, cell, sweep)
-        (cell_dir / "replicates").mkdir(parents=True, exist_ok=True)
-        if sweep:
-            atomic_write_text(cell_dir / "config.toml", cell.scenario.to_toml())
-        if record:
-            (cell_dir / RECORDINGS).mkdir(exist_ok=True)
-        for replicate in range(scenario.replicates):
-            if replicate_path(cell_dir, replicate).exists():
-                finished += 1
-                continue
-            tasks.append(
-                ReplicateTask(
-                    (cell.index, replicate),
-                    cell.scenario,
-                    replicate,
-                    (demo_sources or {}).get(replicate),
-                    record,
-                )
-            )
+    tasks, finished = _plan_tasks(directory, scenario, cells, record, demo_sources)
     if sweep:
-        write_json(
-            directory / "sweep.json",
-            {
-                "keys": list(scenario.sweep),
-                "cells": [
-                    {
-                        "index": c.index,
-                        "labels": c.labels,
-                        "directory": str(_cell_directory(directory, c, True).relative_to(directory)),
-                    }
-                    for c in cells
-                ],
-            },
-        )
+        _write_sweep_json(directory, scenario, cells)
 
     planned = len(cells) * scenario.replicates
     started = time.perf_counter()
