@@ -11,7 +11,10 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
+from mjsuff import domains
+from mjsuff.domains import REGISTRY, DomainSpec, get_domain, register
 from mjsuff.recording import Recording
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
@@ -53,3 +56,14 @@ def test_an_import_path_that_names_no_spec_is_one_line(tmp_path):
         assert done.stderr.strip().count("\n") == 0 and expected in done.stderr
         assert f"{scenario}: domain.name:" in done.stderr
         assert not (tmp_path / "out").exists()
+
+
+def test_register_adds_a_spec_once(monkeypatch):
+    monkeypatch.setattr(domains, "REGISTRY", dict(REGISTRY))  # leave the real one alone
+    gridworld = REGISTRY["gridworld"]
+    spec = DomainSpec("my_grid", gridworld.params, gridworld.factory, view=gridworld.view)
+    assert register(spec) is spec and get_domain("my_grid") is spec
+    assert register(spec) is spec  # the same spec again is fine
+    with pytest.raises(ValueError, match="'my_grid' is registered already"):
+        register(DomainSpec("my_grid", gridworld.params, gridworld.factory))
+    assert "my_grid" not in REGISTRY and "my_grid" in domains.REGISTRY
