@@ -286,21 +286,16 @@ def cmd_hoeffding(args: argparse.Namespace) -> int:
 
 
 def cmd_demos(args: argparse.Namespace) -> int:
-    from mjsuff.domains import REGISTRY, get_domain
     from mjsuff.experts.demo_set import truth_path
-    from mjsuff.experts.generate import generate_demos  # mink only when asked for
+    from mjsuff.experts.generate import generate_demos, scene_parts  # mink only when asked for
 
     scenario = _load(args)
     if scenario is None:
         return EXIT_USAGE
-    if get_domain(scenario.domain.name).kind != "scene":
-        scenes = sorted(n for n, s in REGISTRY.items() if s.kind == "scene")
-        err.print(
-            f"[red]error:[/] {args.scenario}: domain.name: demos are generated for the MuJoCo "
-            f"scenes {scenes}, not {scenario.domain.name!r}",
-            highlight=False,
-            soft_wrap=True,
-        )
+    try:
+        scene_parts(scenario.domain.name)  # a scene with an expert, or one line saying which are
+    except MjsuffError as exc:
+        err.print(f"[red]error:[/] {args.scenario}: {exc}", highlight=False, soft_wrap=True)
         return EXIT_USAGE
     if args.replicate < 0:
         err.print(

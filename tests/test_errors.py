@@ -42,6 +42,7 @@ def test_an_unusable_cluster_has_its_own_exit_status():
             ["demos", "lava_reacher", "--replicate", "-1"],
             "--replicate: expected a replicate index ≥ 0, got -1",
         ),
+        (["demos", "gridworld"], "gridworld: domain.name: demos are generated for the MuJoCo scenes"),
         (["calibrate", "gridworld", "--instances", "0"], "--instances: expected a positive number, got 0"),
     ],
 )
