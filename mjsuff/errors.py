@@ -18,3 +18,11 @@ class MjsuffError(Exception):
 
 class UsageError(MjsuffError, ValueError):
     """A command-line value that cannot be used (the message names the option)."""
+
+
+def in_context(where: str, exc: MjsuffError) -> MjsuffError:
+    """``exc`` restated as ``"{where}: {exc}"`` (the file or option it concerns), keeping its exit
+    status, for a caller that knows where the input came from and the raiser did not."""
+    restated = MjsuffError(f"{where}: {exc}")
+    restated.exit_code = exc.exit_code
+    return restated

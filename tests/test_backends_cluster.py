@@ -23,7 +23,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from mjsuff.cli import EXIT_CLUSTER, EXIT_USAGE, main
+from mjsuff.cli import main
+from mjsuff.cli.console import EXIT_CLUSTER, EXIT_USAGE
 from tests.test_cli import GRIDWORLD, SMALL_SETS, run_cli
 
 pytest.importorskip("ray", reason="the ray extra is not installed")

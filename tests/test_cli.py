@@ -12,7 +12,8 @@ import pandas as pd
 import pytest
 
 from mjsuff.atomic import FILE_MODE
-from mjsuff.cli import _fmt, main
+from mjsuff.cli import main
+from mjsuff.cli.console import fmt
 from mjsuff.experiment import backends
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import RECORDING, run_scenario
@@ -396,15 +397,15 @@ def test_run_summary_is_whole_in_a_log(tmp_path):
             e["rule"],
             f"{e['param']:g}",
             f"{e['epsilon']:g}",
-            _fmt(e["f1"]),
-            _fmt(e["accuracy"]),
-            _fmt(e["bound_error"], 3),
-            _fmt(e["demos_needed"], 1),
-            _fmt(e["demos_needed_sem"], 1),
-            _fmt(e["fraction_of_states"]),
-            _fmt(e["tpr"]),
-            _fmt(e["fpr"]),
-            _fmt(e["policy_optimality"]),
+            fmt(e["f1"]),
+            fmt(e["accuracy"]),
+            fmt(e["bound_error"], 3),
+            fmt(e["demos_needed"], 1),
+            fmt(e["demos_needed_sem"], 1),
+            fmt(e["fraction_of_states"]),
+            fmt(e["tpr"]),
+            fmt(e["fpr"]),
+            fmt(e["policy_optimality"]),
         ]
         for e in entries
         if e["rule"] in ("nevd", "piob") or e["epsilon"] == 0.3

@@ -142,37 +142,6 @@ def _rotation(xyzw):
     return mat.reshape(3, 3)
 
 
-def test_view_without_display_says_what_to_run(grid_run, monkeypatch, capsys):
-    from mjsuff import cli
-
-    directory, _ = grid_run
-    monkeypatch.setattr(cli, "has_display", lambda: False)
-    monkeypatch.setattr(cli.subprocess, "call", lambda *a, **k: pytest.fail("no viewer here"))
-    assert cli.main(["view", str(directory)]) == 1
-    err = capsys.readouterr().err
-    assert "no display here" in err and "rerun recording.rrd" in err and "--web" in err
-
-
-def test_view_opens_the_viewer_on_the_runs_recording(grid_run, monkeypatch):
-    from mjsuff import cli
-
-    directory, _ = grid_run
-    calls = []
-    monkeypatch.setattr(cli, "has_display", lambda: True)
-    monkeypatch.setattr(cli.subprocess, "call", lambda command: calls.append(command) or 0)
-    assert cli.main(["view", str(directory)]) == 0
-    assert calls[0][-1] == str(directory / RECORDING)
-    assert cli.main(["view", str(directory), "--web", "--port", "9123"]) == 0
-    assert "--web-viewer" in calls[1] and "9123" in calls[1]
-
-
-def test_view_of_a_missing_recording_is_a_clear_error(tmp_path, capsys):
-    from mjsuff import cli
-
-    assert cli.main(["view", str(tmp_path)]) == 2
-    assert "no recording" in capsys.readouterr().err
-
-
 ALL_GEOMS = """
 <mujoco>
   <asset>

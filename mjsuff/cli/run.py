@@ -1,0 +1,236 @@
+"""``mjsuff run``: run a scenario and print what every stopping rule decided."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import signal
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from rich.table import Table
+
+from mjsuff.cli.console import (
+    EXIT_CLUSTER,
+    EXIT_INTERRUPTED,
+    EXIT_USAGE,
+    fmt,
+    note,
+    out,
+    progress_bar,
+    say,
+    warning,
+)
+from mjsuff.cli.options import load, quiet_option, scenario_options
+from mjsuff.errors import MjsuffError, UsageError, in_context
+from mjsuff.experiment.backends import make_backend
+from mjsuff.experiment.runner import CellResult, RunResult, run_scenario
+from mjsuff.experiment.scenario import Scenario
+from mjsuff.experts.demo_set import DemoFileError
+
+SUMMARY_COLUMNS = (
+    "rule",
+    "param",
+    "ε",
+    "F1",
+    "accuracy",
+    "bound err",
+    "demos",
+    "± sem",
+    "states",
+    "TPR",
+    "FPR",
+    "optimality",
+)
+
+
+def add_parser(commands: Any) -> None:
+    run = commands.add_parser(
+        "run",
+        parents=[
+            scenario_options("scenarios/gridworld.toml or lava_reacher", "sufficiency.alpha=0.99"),
+            quiet_option("summary table"),
+        ],
+        help="run a scenario: demos one at a time, every stopping rule decides, ground truth scores it",
+        description="Run a scenario file (or a shipped scenario by name: mjsuff scenarios lists "
+        "them) and write steps.parquet, summary.json and config.toml to the output directory.",
+        epilog=f"exit status: 0 done, {EXIT_USAGE} bad input (nothing written), {EXIT_CLUSTER} the "
+        f"Ray cluster at --address cannot be used (nothing written), {EXIT_INTERRUPTED} "
+        "interrupted (finished replicates kept; --resume continues)",
+    )
+    run.add_argument("--out", help="output directory (default: runs/NAME-TIMESTAMP)")
+    run.add_argument("--replicates", type=int, help="override the number of replicates")
+    run.add_argument(
+        "--demos",
+        action="append",
+        metavar="FILE",
+        help="a saved demo set (mjsuff demos) for the replicate it names, instead of "
+        "the live expert; repeat for more replicates",
+    )
+    run.add_argument(
+        "--no-record", action="store_true", help="do not write the Rerun recording DIR/recording.rrd"
+    )
+    existing = run.add_mutually_exclusive_group()
+    existing.add_argument(
+        "--overwrite", action="store_true", help="replace the results in a non-empty --out directory"
+    )
+    existing.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --out: keep its finished replicates, run the rest "
+        "(the scenario must match its config.toml; --replicates may grow)",
+    )
+    run.add_argument(
+        "--backend",
+        choices=("local", "serial", "ray"),
+        default="local",
+        help="where replicates run: local worker processes (default), serial (this "
+        "process, per-demo progress) or a Ray cluster (pip install 'mjsuff[ray]')",
+    )
+    run.add_argument(
+        "--workers",
+        type=int,
+        help="local: worker processes (default: all cores; 1 = serial); ray: CPUs of the local Ray instance",
+    )
+    run.add_argument(
+        "--address", help="ray: address of a running cluster (default: start a local Ray instance)"
+    )
+    run.set_defaults(func=cmd_run)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    scenario = load(args)
+    if args.resume and not args.out:
+        raise UsageError("--resume: name the run directory to continue with --out DIR")
+    directory = Path(args.out or f"runs/{scenario.name}-{time.strftime('%Y%m%d-%H%M%S')}")
+    backend = make_backend(args.backend, args.workers, args.address)
+    sources = None
+    if args.demos:
+        from mjsuff.experts.recorded import load_recorded_demos  # mink only when asked for
+
+        try:
+            sources = load_recorded_demos(args.demos, scenario)
+        except MjsuffError as exc:
+            raise in_context("--demos", exc) from exc
+    try:  # a cluster that cannot be used is found before anything is written to --out
+        backend.connect()
+    except KeyboardInterrupt:
+        note("interrupted while connecting: nothing written")
+        return EXIT_INTERRUPTED
+    progress = progress_bar(args.quiet)
+    cells = len(scenario.cells())
+    task = progress.add_task(scenario.name, total=cells * scenario.replicates, detail="")
+
+    def on_progress(finished: int, planned: int, done: float) -> None:
+        in_cells = f" in {cells} sweep cells" if cells > 1 else ""
+        progress.update(
+            task, completed=done, total=planned, detail=f"{finished}/{planned} replicates{in_cells}"
+        )
+
+    try:
+        with progress, sigterm_interrupts():
+            result = run_scenario(
+                scenario,
+                directory,
+                args.overwrite,
+                on_progress,
+                sources,
+                record=not args.no_record,
+                backend=backend,
+                resume=args.resume,
+            )
+    except DemoFileError as exc:  # found mid-run: a demo set without the demo asked for
+        raise UsageError(f"{exc} (finished replicates are saved in {directory})") from exc
+    except KeyboardInterrupt:
+        note(f"interrupted: finished replicates are saved in {directory} (steps.parquet, summary.json)")
+        return EXIT_INTERRUPTED
+    print_summary(result, scenario, directory, quiet=args.quiet, recorded=not args.no_record)
+    return 0
+
+
+@contextlib.contextmanager
+def sigterm_interrupts() -> Iterator[None]:
+    """Treat SIGTERM (``kill``, a batch scheduler's stop) like Ctrl-C while a run goes: finished
+    replicates are kept and summarized, worker processes are stopped."""
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def print_summary(
+    result: RunResult, scenario: Scenario, directory: Path, *, quiet: bool, recorded: bool
+) -> None:
+    """The run's tables (one per sweep cell), its simulation and sampler notes, and its files."""
+    if not quiet:
+        for cell in result.cells or (CellResult({}, result),):
+            table = summary_table(cell.result, scenario.rules.nevd_thresholds)
+            if cell.labels:
+                table.title = ", ".join(f"{k} = {v}" for k, v in cell.labels.items()) + f": {table.title}"
+            out.print(table)
+    simulation = result.simulation
+    if simulation["simulated_steps"]:
+        say(
+            f"MuJoCo: {simulation['simulated_steps']:,} steps simulated; "
+            f"{simulation['diverged_rollouts']:,} diverged rollouts detected and never scored"
+        )
+    sampler = result.sampler
+    if sampler.get("posteriors"):
+        capped = sampler["unconverged_posteriors"]
+        cfg = scenario.sampler()
+        converged = (
+            f"{capped:,} hit the step cap ({cfg.max_steps}) first: flagged (converged = false "
+            "in steps.parquet) and never used to stop"
+            if capped
+            else "all converged"
+        )
+        say(
+            f"MCMC: {sampler['posteriors']:,} posteriors (R̂ ≤ {cfg.rhat_target:g}, ESS ≥ "
+            f"{cfg.ess_target:g}); {converged}"
+        )
+    if result.recording_error:
+        warning(f"the recording was not merged: {result.recording_error}")
+    recording = ", recording.rrd (mjsuff view DIR)" if recorded else ""
+    cells_note = " (per cell in cells/*/; sweep.json)" if result.cells else ""
+    say(
+        f"results: {directory}/steps.parquet, summary.json, config.toml{recording}{cells_note}; "
+        f"mjsuff report {directory} for figures"
+    )
+
+
+def summary_table(result: RunResult, thresholds: list[float]) -> Table:
+    """Bound rules at their thresholds; baselines scored at the middle nEVD threshold."""
+    eps_mid = sorted(thresholds)[len(thresholds) // 2] if thresholds else math.nan
+    table = Table(title=f"{result.completed} replicate(s); baselines scored at ε = {eps_mid:g}")
+    for col in SUMMARY_COLUMNS:
+        table.add_column(col, justify="right" if col != "rule" else "left")
+    for e in result.summary["entries"]:
+        if e["rule"] in ("patience", "validation") and e["epsilon"] != eps_mid:
+            continue
+        table.add_row(
+            e["rule"],
+            f"{e['param']:g}",
+            f"{e['epsilon']:g}",
+            fmt(e["f1"]),
+            fmt(e["accuracy"]),
+            fmt(e["bound_error"], 3),
+            fmt(e["demos_needed"], 1),
+            fmt(e["demos_needed_sem"], 1),
+            fmt(e["fraction_of_states"]),
+            fmt(e["tpr"]),
+            fmt(e["fpr"]),
+            fmt(e["policy_optimality"]),
+        )
+    return table
