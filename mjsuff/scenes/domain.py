@@ -153,21 +153,25 @@ class SceneDomain(Domain):
         optimal_gap: float = 0.05,
         candidates: Candidates = "library",
     ) -> None:
+        if expert is None:
+            raise ValueError(
+                "a SceneDomain needs its expert: the random policy is random paths "
+                "of the demonstrator's family (build it with make_scene_domain)"
+            )
+        planning = planning or PlanningSettings()
+        if planning.seed_directions < 1:
+            raise ValueError(
+                "planning.seed_directions: the random policy plans prior draws; at least 1 is needed"
+            )
         self.scene = scene
         self.expert = expert
         self.rng = rng
         k = self.num_features = scene.num_features
         self.true_weights = np.asarray(true_weights, dtype=float)
         s, p = len(scene.starts), len(scene.pool_starts)
-        everywhere = np.arange(s + p)
         self.start_weights = np.full(s, 1.0 / s)
         self.pool = np.arange(s, s + p)
         self.library = TrajectoryLibrary(s + p, k, scene.spline.shape)
-        planning = planning or PlanningSettings()
-        if planning.seed_directions < 1:
-            raise ValueError(
-                "planning.seed_directions: the random policy plans prior draws; at least 1 is needed"
-            )
         self.planning = planning
         self.planner = SamplingPlanner(scene, planning.planner or scene.planner_config, self.library)
         self.refiner = SamplingPlanner(scene, planning.refine or scene.refine_config, self.library)
@@ -177,31 +181,55 @@ class SceneDomain(Domain):
         self.optimal_gap = optimal_gap
         self.candidates = candidates
         self._family: dict[int, np.ndarray] = {}
-        knots = scene.spline.uniform(rng, RANDOM_TRAJECTORIES * (s + p))
+        # The library before the first demo, in this order (each step draws from ``rng`` in turn).
+        self._random_features = self._add_uniform_trajectories(rng)
+        self._add_primitives(expert)
+        self._random_mu = self._random_policy(expert, rng)
+        self._add_seed_plans(rng)
+        _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
+        # Fixed, instance-independent directions: they must not draw from the instance's stream.
+        self._directions = sample_orthant(np.random.default_rng(0), CANDIDATE_DIRECTIONS, k)
+        self._candidates: dict[bytes, np.ndarray] = {}
+        self._features: dict[bytes, np.ndarray] = {}
+        self._planned_for: dict[bytes, np.ndarray] = {}
+        self._pool_plans: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._truth: np.ndarray | None = None
+        # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
+        self._truth_seed = int(rng.integers(2**63))
+
+    def _add_uniform_trajectories(self, rng: np.random.Generator) -> np.ndarray:
+        """``RANDOM_TRAJECTORIES`` uniform splines from every start into the library; their
+        features ``(S + P, RANDOM_TRAJECTORIES, k)``."""
+        scene, count = self.scene, len(self.scene.all_starts)
+        knots = scene.spline.uniform(rng, RANDOM_TRAJECTORIES * count)
         _, feats = scene.simulate(np.repeat(scene.all_starts, RANDOM_TRAJECTORIES, axis=0), knots)
-        feats = feats.reshape(s + p, RANDOM_TRAJECTORIES, k)
-        knots = knots.reshape(s + p, RANDOM_TRAJECTORIES, *scene.spline.shape)
-        for i in range(s + p):
+        feats = feats.reshape(count, RANDOM_TRAJECTORIES, self.num_features)
+        knots = knots.reshape(count, RANDOM_TRAJECTORIES, *scene.spline.shape)
+        for i in range(count):
             self.library.add(i, feats[i], knots[i])
-        self._random_features = feats
-        if expert is None:
-            raise ValueError(
-                "a SceneDomain needs its expert: the random policy is random paths "
-                "of the demonstrator's family (build it with make_scene_domain)"
-            )
-        for i in range(s + p):  # the scene's own reward-agnostic primitives
-            knots = scene.primitive_knots(scene.all_starts[i])
+        return feats
+
+    def _add_primitives(self, expert: Expert) -> None:
+        """The scene's own reward-agnostic primitives and the demonstrator's path family (where
+        it is in the robot's class) from every start into the library."""
+        scene = self.scene
+        for i, start in enumerate(scene.all_starts):
+            knots = scene.primitive_knots(start)
             if len(knots):
-                _, feats = scene.simulate(scene.all_starts[i][None], knots)
-                self.library.add(int(i), feats, knots)
-        for i in range(s + p):  # the demonstrator's path family, where it is in the robot's class
-            done, _ = expert.execute(scene.all_starts[i], expert.primitives(scene.all_starts[i]))
+                _, feats = scene.simulate(start[None], knots)
+                self.library.add(i, feats, knots)
+        for i, start in enumerate(scene.all_starts):
+            done, _ = expert.execute(start, expert.primitives(start))
             if done.knots is not None and len(done.knots):
-                self.library.add(int(i), done.features, done.knots)
-        # The random policy: random goal-directed paths of that family from each evaluation start.
-        self._random_mu = np.empty((s, k))
-        for i in range(s):
-            start, found = scene.starts[i], []
+                self.library.add(i, done.features, done.knots)
+
+    def _random_policy(self, expert: Expert, rng: np.random.Generator) -> np.ndarray:
+        """The random policy's feature expectations ``(S, k)``: random goal-directed paths of the
+        demonstrator's family from each evaluation start (added to the library as well)."""
+        scene = self.scene
+        random_mu = np.empty((len(scene.starts), self.num_features))
+        for i, start in enumerate(scene.starts):
+            found: list[np.ndarray] = []
             for _ in range(RANDOM_PATH_ROUNDS):  # paths the expert cannot track are drawn again
                 done, _ = expert.execute(start, expert.random_params(start, rng, RANDOM_PATHS))
                 if not len(done.params):
@@ -218,30 +246,23 @@ class SceneDomain(Domain):
                     f"no random path from evaluation start {i} could be executed "
                     f"in {RANDOM_PATH_ROUNDS * RANDOM_PATHS} tries"
                 )
-            self._random_mu[i] = np.mean(found[:RANDOM_PATHS], axis=0)
-        # Seed plans: prior draws planned from every start, warm-started from the library, so it
-        # holds each mode's optimum before the first demo.
-        directions = sample_orthant(rng, planning.seed_directions, k)
-        problems = np.repeat(everywhere, len(directions))
-        tiled = np.tile(directions, (s + p, 1))
+            random_mu[i] = np.mean(found[:RANDOM_PATHS], axis=0)
+        return random_mu
+
+    def _add_seed_plans(self, rng: np.random.Generator) -> None:
+        """Prior draws planned from every start, warm-started from the library, so that it holds
+        each mode's optimum before the first demo."""
+        scene, count = self.scene, len(self.scene.all_starts)
+        directions = sample_orthant(rng, self.planning.seed_directions, self.num_features)
+        problems = np.repeat(np.arange(count), len(directions))
+        tiled = np.tile(directions, (count, 1))
         warm = self._library_warm(self.library, problems, tiled)
-        seeds = SamplingPlanner(scene, planning.seed_planner or scene.seed_config, self.library).plan(
-            problems, tiled, rng, warm_knots=warm
-        )
+        planner = SamplingPlanner(scene, self.planning.seed_planner or scene.seed_config, self.library)
+        seeds = planner.plan(problems, tiled, rng, warm_knots=warm)
         if not np.isfinite(seeds.features).all():
             raise RuntimeError(
                 "a seed plan diverged in every rollout; the scene or its control range is broken"
             )
-        _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
-        # Fixed, instance-independent directions: they must not draw from the instance's stream.
-        self._directions = sample_orthant(np.random.default_rng(0), CANDIDATE_DIRECTIONS, k)
-        self._candidates: dict[bytes, np.ndarray] = {}
-        self._features: dict[bytes, np.ndarray] = {}
-        self._planned_for: dict[bytes, np.ndarray] = {}
-        self._pool_plans: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        self._truth: np.ndarray | None = None
-        # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
-        self._truth_seed = int(rng.integers(2**63))
 
     def simulation_stats(self) -> dict[str, int]:
         """MuJoCo steps simulated and rollouts flagged as diverged (never scored) so far."""
