@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mjsuff.experiment.demo_generation import generate_demos, instance_meta, scene_instance
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.experts.demo_set import DemoFileError, load_demo_set, truth_path
-from mjsuff.experts.generate import generate_demos, instance_meta, scene_instance
 
 ROOT = Path(__file__).resolve().parents[1]
 OVERRIDES = ["domain.params.eval_starts=3", "domain.params.expert.refine_rounds=0"]

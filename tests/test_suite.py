@@ -11,8 +11,8 @@ from dm_env import StepType, test_utils
 
 from mjsuff import suite
 from mjsuff.domains import REGISTRY, get_domain
+from mjsuff.experiment.demo_generation import generate_demos
 from mjsuff.experiment.scenario import load_scenario
-from mjsuff.experts.generate import generate_demos
 from mjsuff.posterior import SamplerConfig, sample_posterior
 
 from .test_demo_set import OVERRIDES, ROOT

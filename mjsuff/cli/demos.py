@@ -35,7 +35,7 @@ def add_parser(commands: Any) -> None:
 
 
 def cmd_demos(args: argparse.Namespace) -> int:
-    from mjsuff.experts.generate import generate_demos, scene_parts  # mink only when asked for
+    from mjsuff.experiment.demo_generation import generate_demos, scene_parts  # mink only when asked for
 
     scenario = load(args)
     try:

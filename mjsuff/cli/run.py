@@ -110,7 +110,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     backend = make_backend(args.backend, args.workers, args.address)
     sources = None
     if args.demos:
-        from mjsuff.experts.recorded import load_recorded_demos  # mink only when asked for
+        from mjsuff.experiment.recorded_demos import load_recorded_demos  # mink only when asked for
 
         try:
             sources = load_recorded_demos(args.demos, scenario)

@@ -20,9 +20,9 @@ import numpy as np
 from pydantic import BaseModel
 
 from mjsuff.domains import REGISTRY
+from mjsuff.experiment.demo_generation import instance_fingerprint, replicate_instance
 from mjsuff.experts.demo_set import DemoFileError, DemoSet
 from mjsuff.experts.demo_set import load_demo_set as read_demo_set
-from mjsuff.experts.generate import instance_fingerprint, replicate_instance
 from mjsuff.scenes.domain import draw_true_weights
 from mjsuff.scenes.scene import Scene
 from mjsuff.suite import lander, lava_reacher
@@ -96,7 +96,7 @@ def load_instance(
     seed: int | np.random.Generator | None = None,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
-    """An environment of one fixed scene instance (e.g. a run's, ``experts.generate.scene_instance``).
+    """An environment of one fixed scene instance (e.g. a run's: ``demo_generation.scene_instance``).
 
     Args:
         true_weights: The instance's ``w*`` (the reward unless ``weights`` is given).

@@ -1,7 +1,7 @@
 """Saved demo sets served to ``mjsuff run`` in place of the live expert.
 
 A demo set made by ``mjsuff demos`` for a replicate holds the demos that replicate's run would be
-shown, in its passive order (``mjsuff.experts.generate``). Served back, each request for a start
+shown, in its passive order (``mjsuff.experiment.demo_generation``). Served back, each request for a start
 takes the file's next unused demo from that start, so a passive run reproduces the live run.
 """
 
@@ -14,9 +14,9 @@ import numpy as np
 
 from mjsuff.demo_schedule import DemoSchedule
 from mjsuff.domain import Demo
+from mjsuff.experiment.demo_generation import instance_meta, scene_instance
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experts.demo_set import DemoFileError, DemoSet, load_demo_set
-from mjsuff.experts.generate import instance_meta, scene_instance
 
 #: The arrays a served ``Demo`` carries in ``data`` (as the live expert's do).
 DEMO_ARRAYS = ("features", "qpos", "qvel", "controls", "intended", "executed")
