@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -67,3 +68,39 @@ def test_register_adds_a_spec_once(monkeypatch):
     with pytest.raises(ValueError, match="'my_grid' is registered already"):
         register(DomainSpec("my_grid", gridworld.params, gridworld.factory))
     assert "my_grid" not in REGISTRY and "my_grid" in domains.REGISTRY
+
+
+#: Sizes that keep the MuJoCo scene's run to seconds while every stage still runs.
+SMALL_SCENE = [
+    "domain.params.eval_starts=2",
+    "domain.params.pool_starts=3",
+    "demos.max_demos=2",
+    "posterior.num_samples=100",
+    "domain.params.planning.planner.iterations=2",
+    "domain.params.planning.refine_rounds=0",
+    "domain.params.planning.seed_directions=1",
+    "domain.params.planning.truth_scale=1.0",
+    "rules.validation_intervals=[2]",
+    "rules.patience=[1]",
+]
+
+
+def test_a_mujoco_scene_from_outside_runs_records_and_demonstrates(tmp_path):
+    """examples/effort_reacher.py: its own MJCF model and a fifth feature from its torque sensors."""
+    sets = [x for s in SMALL_SCENE for x in ("--set", s)]
+    out = tmp_path / "effort"
+    scenario = str(EXAMPLES / "effort_reacher.toml")
+    done = mjsuff("run", scenario, "--out", str(out), "--quiet", "--workers", "2", *sets, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    steps = pd.read_parquet(out / "steps.parquet")
+    assert sorted(steps["replicate"].unique()) == [0, 1] and sorted(steps["step"].unique()) == [1, 2]
+    assert (steps["true_nevd"] >= -1e-9).all() and steps["simulated_steps"].gt(0).all()
+    # The scene view draws the outside model: its payload geom and the fingertip's path.
+    paths = Recording(out / "recording.rrd").entity_paths()
+    assert any(p.startswith("/r0/") and p.endswith("/geom_payload") for p in paths), sorted(paths)[:20]
+    # mjsuff demos knows it too; the demos carry the model's fifth feature, from its sensors.
+    demos = tmp_path / "effort.npz"
+    done = mjsuff("demos", scenario, "--count", "2", "--out", str(demos), "--quiet", *sets, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    with np.load(demos) as saved:
+        assert saved["features"].shape == (2, 5) and (saved["features"][:, 4] > 0).all()

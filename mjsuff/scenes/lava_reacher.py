@@ -36,6 +36,8 @@ sphere: every feature is a cost.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from pydantic import Field, model_validator
 
@@ -122,6 +124,8 @@ class LavaReacher(Scene):
     """One lava-reacher instance drawn from ``rng``."""
 
     feature_names = FEATURE_NAMES
+    #: The MJCF model: a shipped model's name, or a path (a scene built on this one elsewhere).
+    model_file: str | Path = "lava_reacher.xml"
     path_axes = (0, 1)  # the fingertip moves in the world x-y plane
     # π and V* refinement: CMA-ES from the library's best trajectory for the reward (the
     # demonstrator's path family, the seed plans, every plan since), a local search. The seed
@@ -136,7 +140,7 @@ class LavaReacher(Scene):
         self, params: LavaReacherParams, rng: np.random.Generator, threads: int | None = None
     ) -> None:
         self.params = params
-        self.model = load_model("lava_reacher.xml")
+        self.model = load_model(self.model_file)
         # The goal in front of the arm; a start region on each side, 1.5–2 rad away.
         goal_angle = self.goal_angle = rng.uniform(-0.25, 0.25)
         self.goal = rng.uniform(0.2, 0.3) * np.array([np.cos(goal_angle), np.sin(goal_angle)])

@@ -37,9 +37,9 @@ def model_path(name: str) -> Path:
     return path
 
 
-def load_model(name: str) -> mujoco.MjModel:
-    """Compile the shipped MJCF model ``NAME`` (see ``model_path``)."""
-    return mujoco.MjModel.from_xml_path(str(model_path(name)))
+def load_model(name: str | Path) -> mujoco.MjModel:
+    """Compile the shipped MJCF model ``NAME`` (see ``model_path``), or the model at path ``name``."""
+    return mujoco.MjModel.from_xml_path(str(name if isinstance(name, Path) else model_path(name)))
 
 
 class Scene(abc.ABC):
