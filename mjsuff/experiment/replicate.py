@@ -20,7 +20,7 @@ from mjsuff.domain import BoundIndex, Demo, Domain, Policy
 from mjsuff.domains import get_domain
 from mjsuff.experiment.scenario import Scenario, SufficiencySettings
 from mjsuff.experiment.selection import active_choice
-from mjsuff.experiment.step_row import StepRow
+from mjsuff.experiment.step_row import SIMULATION_COUNTERS, StepRow
 from mjsuff.posterior.sampler import Posterior, sample_posterior
 from mjsuff.seeds import stream_seed
 from mjsuff.stopping import (
@@ -256,7 +256,7 @@ def _simulation_columns(domain: Domain) -> dict[str, int]:
     """The simulation behind the instance so far (``Domain.simulation_stats``), as ``StepRow``
     fields; 0 for exact domains."""
     stats = domain.simulation_stats()
-    return {name: stats.get(name, 0) for name in ("simulated_steps", "diverged_rollouts")}
+    return {name: stats.get(name, 0) for name in SIMULATION_COUNTERS}
 
 
 def _decide(

@@ -40,6 +40,7 @@ from mjsuff.experiment.results import (
     write_replicate,
 )
 from mjsuff.experiment.scenario import Scenario, SweepCell, flat_keys
+from mjsuff.experiment.step_row import SIMULATION_COUNTERS
 
 #: A cell's merged Rerun recording, in its output directory.
 RECORDING = "recording.rrd"
@@ -76,7 +77,7 @@ class CellResult:
 def simulation_totals(steps: pd.DataFrame) -> dict[str, int]:
     """MuJoCo steps simulated and diverged rollouts over the finished replicates (the step
     columns are running counts per replicate; exact domains have none)."""
-    columns = ("simulated_steps", "diverged_rollouts")
+    columns = SIMULATION_COUNTERS
     if steps.empty or not all(c in steps for c in columns):
         return {c: 0 for c in columns}
     last = steps.groupby("replicate")[list(columns)].max()
@@ -436,9 +437,7 @@ def finalize_sweep(
         {"scenario": scenario.name, "cells": [{"labels": c.labels, **c.result.summary} for c in results]},
     )
     completed = sum(c.result.completed for c in results)
-    simulation = {
-        k: sum(c.result.simulation[k] for c in results) for k in ("simulated_steps", "diverged_rollouts")
-    }
+    simulation = {k: sum(c.result.simulation[k] for c in results) for k in SIMULATION_COUNTERS}
     sampler = {
         k: sum(c.result.sampler.get(k, 0) for c in results) for k in ("posteriors", "unconverged_posteriors")
     }

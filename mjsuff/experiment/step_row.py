@@ -68,6 +68,10 @@ class StepRow:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
+#: The columns a domain's ``simulation_stats`` fills, running counts per replicate (0 where it has
+#: none). The MuJoCo scenes are the only domains that simulate; the names stay as v0.1 wrote them,
+#: since renaming them would change every ``steps.parquet``.
+SIMULATION_COUNTERS: tuple[str, ...] = ("simulated_steps", "diverged_rollouts")
 #: The columns of ``steps.parquet``, in order.
 STEP_COLUMNS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(StepRow))
 #: What each column means (the README's table).
