@@ -357,16 +357,21 @@ def run_replicate(
             observer.step(step, demos[-1], post.samples, nevd, post.map_weights, map_policy, new_rows)
         if on_step is not None:
             on_step(step, schedule.budget)
-        if step < schedule.budget:
-            if scenario.demos.selection == "active":
-                pool_evd = domain.pool_regrets(post.samples, map_policy)
-                start = active_choice(pool_evd, asked, suff.alpha, suff.delta, suff.quantile_method, nevd_ess)
-            else:
-                start = schedule.start(step)
-    # The truth nothing beats: raised to everything simulated under w*, every row rescored.
+        if step < schedule.budget and scenario.demos.selection == "active":
+            pool_evd = domain.pool_regrets(post.samples, map_policy)
+            start = active_choice(pool_evd, asked, suff.alpha, suff.delta, suff.quantile_method, nevd_ess)
+        elif step < schedule.budget:
+            start = schedule.start(step)
+    _rescore(domain, truth, rows, scored)
+    return [row.as_dict() for row in rows]
+
+
+def _rescore(domain: Domain, truth: _Truth, rows: list[StepRow], scored: list[tuple[Policy, bool]]) -> None:
+    """The truth nothing beats: raised to the best of everything the replicate simulated under
+    w*, and every row scored again against it (``scored``: each row's policy, and whether PIOB
+    is its truth)."""
     raised = truth.raise_to(domain.best_simulated_start_values(domain.true_weights))
     for row, (policy, measures_improvement) in zip(rows, scored, strict=True):
         row.true_nevd, row.true_piob, row.policy_optimality = truth(policy)
         row.true_value = row.true_piob if measures_improvement else row.true_nevd
         row.truth_raised_starts, row.truth_raise = raised
-    return [row.as_dict() for row in rows]

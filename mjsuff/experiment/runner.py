@@ -28,7 +28,7 @@ import pandas as pd
 
 from mjsuff import __version__
 from mjsuff.atomic import atomic_write_bytes, atomic_write_parquet, atomic_write_text
-from mjsuff.experiment.backends import Backend, ReplicateTask, SerialBackend
+from mjsuff.experiment.backends import Backend, ReplicateResult, ReplicateTask, SerialBackend
 from mjsuff.experiment.measures import sampler_diagnostics, summarize
 from mjsuff.experiment.replicate import DemoSource
 from mjsuff.experiment.results import (
@@ -369,15 +369,7 @@ def run_scenario(
     interrupted = True
     try:
         for task, result in backend.run(tasks, on_step if progress is not None else None):
-            cell_dir = _cell_directory(directory, cells[task.key[0]], sweep)
-            # The recording part first: a replicate whose rows are on disk always has its part
-            # (a kill in between leaves a part without rows, which the merge drops and a resume
-            # writes again when it redoes the replicate).
-            if result.recording is not None:
-                atomic_write_bytes(
-                    cell_dir / RECORDINGS / f"replicate-{task.replicate:05d}.rrd", result.recording
-                )
-            write_replicate(cell_dir, task.replicate, result.rows)
+            _save_replicate(_cell_directory(directory, cells[task.key[0]], sweep), task, result)
             done_keys.add(task.key)
             fractions.pop(task.key, None)
             finished += 1
@@ -386,28 +378,40 @@ def run_scenario(
     finally:
         # Ctrl-C, or anything failing mid-run (e.g. a saved demo set without the demo asked
         # for): the finished replicates are summarized before the error goes up.
-        results = [
-            CellResult(
-                c.labels,
-                finalize(
-                    _cell_directory(directory, c, sweep),
-                    c.scenario,
-                    started,
-                    interrupted,
-                    backend.describe(),
-                    record,
-                ),
-            )
-            for c in cells
-        ]
-        total = (
-            results[0].result
-            if not sweep
-            else finalize_sweep(
-                directory, scenario, results, started, interrupted, backend.describe(), record
-            )
-        )
+        total = _summarize(directory, scenario, cells, started, interrupted, backend.describe(), record)
     return total
+
+
+def _save_replicate(cell_dir: Path, task: ReplicateTask, result: ReplicateResult) -> None:
+    """A finished replicate's recording part, then its rows. In that order, a replicate whose rows
+    are on disk always has its part (a kill in between leaves a part without rows, which the merge
+    drops and a resume writes again when it redoes the replicate)."""
+    if result.recording is not None:
+        atomic_write_bytes(cell_dir / RECORDINGS / f"replicate-{task.replicate:05d}.rrd", result.recording)
+    write_replicate(cell_dir, task.replicate, result.rows)
+
+
+def _summarize(
+    directory: Path,
+    scenario: Scenario,
+    cells: list[SweepCell],
+    started: float,
+    interrupted: bool,
+    backend: str,
+    record: bool,
+) -> RunResult:
+    """Summaries of the finished replicates: per cell, and for a sweep over the cells."""
+    sweep = bool(scenario.sweep)
+    results = [
+        CellResult(
+            c.labels,
+            finalize(_cell_directory(directory, c, sweep), c.scenario, started, interrupted, backend, record),
+        )
+        for c in cells
+    ]
+    if not sweep:
+        return results[0].result
+    return finalize_sweep(directory, scenario, results, started, interrupted, backend, record)
 
 
 def finalize_sweep(
