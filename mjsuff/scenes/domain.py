@@ -62,7 +62,6 @@ the replicate raises it to the best of everything it simulated.
 
 from __future__ import annotations
 
-import copy
 import zlib
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, cast
@@ -78,7 +77,8 @@ from mjsuff.scenes.perturbation import perturb_controls
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
-from mjsuff.scenes.surrogate import polish
+from mjsuff.scenes.search import library_warm, polish_library
+from mjsuff.scenes.truth import true_start_values
 from mjsuff.sphere import normalize, random_unit_vectors
 
 if TYPE_CHECKING:
@@ -93,16 +93,6 @@ RANDOM_PATH_ROUNDS = 8
 #: Reward directions (fixed, spread over the prior's orthant) whose library optimum joins a
 #: demo's candidate set.
 CANDIDATE_DIRECTIONS = 64
-#: Ground truth's broad CMA-ES step, as a share of the control range.
-TRUTH_SIGMA = 0.2
-#: Ground truth's rounds of the local quadratic model after its searches, at most: it stops once
-#: two rounds in a row improve no start (the learner polishes plans near w* at every step, so the
-#: truth must have converged where the learner's polish would go).
-TRUTH_POLISH_ROUNDS = 64
-#: Ground truth first plans this many rewards around w* (w* plus this s.d. of noise per weight,
-#: normalized: about 14° off) with the planner's budget, as the learner does near w*.
-TRUTH_CLOUD = 16
-TRUTH_CLOUD_SPREAD = 0.15
 
 
 def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
@@ -256,7 +246,7 @@ class SceneDomain(Domain):
         directions = sample_orthant(rng, self.planning.seed_directions, self.num_features)
         problems = np.repeat(np.arange(count), len(directions))
         tiled = np.tile(directions, (count, 1))
-        warm = self._library_warm(self.library, problems, tiled)
+        warm = library_warm(self.library, problems, tiled)
         planner = SamplingPlanner(scene, self.planning.seed_planner or scene.seed_config, self.library)
         seeds = planner.plan(problems, tiled, rng, warm_knots=warm)
         if not np.isfinite(seeds.features).all():
@@ -290,40 +280,18 @@ class SceneDomain(Domain):
     def _plan(self, planner: SamplingPlanner, w: np.ndarray, starts: np.ndarray) -> np.ndarray:
         """Knots planned for ``w`` from library starts ``starts``, warm-started from the library."""
         weights = np.broadcast_to(np.asarray(w, dtype=float), (len(starts), self.num_features))
-        warm = self._library_warm(self.library, starts, weights)
+        warm = library_warm(self.library, starts, weights)
         plans = planner.plan(starts, weights, self.rng, warm_knots=warm).knots
         if not self.planning.polish_rounds:
             return plans
         self._polish(self.library, starts, weights, self.planning.polish_rounds)
-        return self._library_warm(self.library, starts, weights)  # the plan, or better
+        return library_warm(self.library, starts, weights)  # the plan, or better
 
     def _polish(
-        self,
-        library: TrajectoryLibrary,
-        starts: np.ndarray,
-        weights: np.ndarray,
-        rounds: int,
-        until_converged: bool = False,
+        self, library: TrajectoryLibrary, starts: np.ndarray, weights: np.ndarray, rounds: int
     ) -> None:
-        """``rounds`` rounds of the local quadratic model's proposals (``mjsuff.scenes.surrogate``)
-        for problems ``(starts[j], weights[j])``, into ``library``; with ``until_converged``,
-        fewer once two rounds in a row improve no problem's best value."""
-        starts, weights = np.asarray(starts), np.asarray(weights)
-
-        def best() -> np.ndarray:
-            return np.array(
-                [library.best(int(s), w[None])[0][0] for s, w in zip(starts, weights, strict=True)]
-            )
-
-        before, idle = (best() if until_converged else None), 0
-        for _ in range(rounds):
-            polish(self.scene, library, starts, weights, self.planning.polish_neighbours)
-            if before is not None:  # until_converged
-                after = best()
-                idle = idle + 1 if np.all(after <= before + 1e-12 * (1.0 + np.abs(before))) else 0
-                if idle == 2:  # two rounds in a row improved no problem
-                    break
-                before = after
+        """``rounds`` rounds of the local quadratic model for problems ``(starts[j], weights[j])``."""
+        polish_library(self.scene, library, starts, weights, rounds, self.planning.polish_neighbours)
 
     def start_feature_expectations(self, policy: np.ndarray) -> np.ndarray:
         key = self.policy_key(policy)
@@ -435,7 +403,7 @@ class SceneDomain(Domain):
                     directions.append(direction)
         if problems:
             starts, directions_ = np.array(problems), np.array(directions)
-            warm = self._library_warm(self.library, starts, directions_)
+            warm = library_warm(self.library, starts, directions_)
             self.planner.plan(starts, directions_, self.rng, warm_knots=warm)
 
     def _claim(self, start: int, direction: np.ndarray) -> bool:
@@ -478,69 +446,20 @@ class SceneDomain(Domain):
         return np.stack([self.library.best_value(int(s), weights) for s in starts], axis=1)
 
     def true_optimal_start_values(self) -> np.ndarray:
-        """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once.
-
-        On a *copy* of the library, with randomness of its own (nothing of ``w*`` reaches the
-        learner's library, warm starts or refinement record): ``TRUTH_CLOUD`` rewards around
-        ``w*`` planned from every start with the planner's budget, then ``w*`` planned by
-        three searches, each from the best found so far and with ``truth_scale`` × its budget
-        (the seed planner's wide one, the planner's CMA-ES with a broad step, the planner
-        itself), the local quadratic model's proposals until they stop improving, and, when
-        there is an expert, its best demo from every evaluation start (a
-        demonstrator that is never asked there in the run). The library maximum under ``w*``
-        then. The replicate raises it to anything better it simulates later
-        (``best_simulated_start_values``).
-        """
+        """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once
+        (``mjsuff.scenes.truth``); the replicate raises it to anything better it simulates
+        later (``best_simulated_start_values``)."""
         if self._truth is None:
-            rng = np.random.default_rng(self._truth_seed)
-            library = copy.deepcopy(self.library)
-            starts = np.arange(len(self.scene.starts))
-            w = np.tile(self.true_weights, (len(starts), 1))
-            scale = self.planning.truth_scale
-            # Searches of growing locality, each from the best found so far, each truth_scale ×
-            # its budget: the seed plans' wide search; the planner's CMA-ES with a broad first
-            # step (TRUTH_SIGMA: it reaches basins next to the library's best that the
-            # planner's own step does not); the planner itself.
-            wide = self.planning.seed_planner or self.scene.seed_config
-            broad = self.planner.config.model_copy(
-                update={"cma_sigma": max(TRUTH_SIGMA, self.planner.config.cma_sigma)}
+            self._truth = true_start_values(
+                self.scene,
+                self.library,
+                self.true_weights,
+                self.planner.config,
+                self.planning,
+                self.expert,
+                np.random.default_rng(self._truth_seed),
             )
-            # First the learner's own kind of search, for rewards around w* (as its π_MAP plans
-            # for posterior modes near w* are): each lands in some basin, and w*'s searches then
-            # start from the best of them all.
-            cloud = normalize(
-                self.true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal((TRUTH_CLOUD, self.num_features))
-            )
-            problems, directions = np.repeat(starts, TRUTH_CLOUD), np.tile(cloud, (len(starts), 1))
-            SamplingPlanner(self.scene, self.planner.config, library).plan(
-                problems, directions, rng, warm_knots=self._library_warm(library, problems, directions)
-            )
-            for search in (wide, broad, self.planner.config):
-                SamplingPlanner(self.scene, search.stronger(scale), library).plan(
-                    starts, w, rng, warm_knots=self._library_warm(library, starts, w)
-                )
-            self._polish(library, starts, w, TRUTH_POLISH_ROUNDS, until_converged=True)
-            if self.expert is not None:
-                best = type(self.expert)(
-                    self.scene, self.expert.settings.model_copy(update={"rationality": None})
-                )
-                for s in starts:
-                    demo = best.demonstrate(self.scene.starts[s], self.true_weights, rng)
-                    library.add_features(int(s), demo.features)
-            self._truth = np.array([library.best_value(int(s), w[:1])[0] for s in starts])
         return self._truth
-
-    @staticmethod
-    def _library_warm(library: TrajectoryLibrary, starts: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """The library's best knots ``(B, K, nu)`` from each of ``starts`` under ``w`` ``(B, k)``:
-        the warm starts of every search."""
-        best = [int(library.best(int(s), w[j][None])[1][0]) for j, s in enumerate(starts)]
-        if min(best) < 0:
-            raise RuntimeError(
-                f"no valid trajectory from start {int(starts[best.index(-1)])} "
-                "to warm-start from (every rollout diverged)"
-            )
-        return np.stack([library.arrays(int(s))[1][j] for s, j in zip(starts, best, strict=True)])
 
     def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:
         """The best value under ``w`` of everything simulated from each evaluation start so far

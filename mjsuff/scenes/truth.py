@@ -1,0 +1,84 @@
+"""Ground truth of a scene instance: ``V*_{w*}(s)`` per evaluation start, planned harder than the
+learner ever plans, from a copy of its library and with randomness of its own.
+
+Nothing of ``w*`` reaches the learner's library, warm starts or refinement record. The replicate
+raises the value later to anything better it simulates under ``w*``
+(``SceneDomain.best_simulated_start_values``), so the truth is the best of everything.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mjsuff.scenes.library import TrajectoryLibrary
+from mjsuff.scenes.planner import SamplingPlanner
+from mjsuff.scenes.planner_config import PlannerConfig
+from mjsuff.scenes.planning import PlanningSettings
+from mjsuff.scenes.scene import Scene
+from mjsuff.scenes.search import library_warm, polish_library
+from mjsuff.sphere import normalize
+
+if TYPE_CHECKING:
+    from mjsuff.experts.expert import Expert
+
+#: Ground truth's broad CMA-ES step, as a share of the control range.
+TRUTH_SIGMA = 0.2
+#: Ground truth's rounds of the local quadratic model after its searches, at most: it stops once
+#: two rounds in a row improve no start (the learner polishes plans near w* at every step, so the
+#: truth must have converged where the learner's polish would go).
+TRUTH_POLISH_ROUNDS = 64
+#: Ground truth first plans this many rewards around w* (w* plus this s.d. of noise per weight,
+#: normalized: about 14° off) with the planner's budget, as the learner does near w*.
+TRUTH_CLOUD = 16
+TRUTH_CLOUD_SPREAD = 0.15
+
+
+def true_start_values(
+    scene: Scene,
+    learner_library: TrajectoryLibrary,
+    true_weights: np.ndarray,
+    planner: PlannerConfig,
+    planning: PlanningSettings,
+    expert: Expert | None,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """``V*_{w*}(s)`` ``(S,)``: the best under ``w*`` of a copy of ``learner_library`` after
+    ``TRUTH_CLOUD`` rewards around ``w*`` are planned from every start with the planner's budget
+    (``planner``), then ``w*`` by three searches, each from the best found so far and with
+    ``planning.truth_scale`` × its budget (the seed planner's wide one, the planner's CMA-ES with a
+    broad step, the planner itself), the local quadratic model's proposals until they stop
+    improving, and, when there is an expert, its best demo from every evaluation start (a
+    demonstrator that is never asked there in the run)."""
+    library = copy.deepcopy(learner_library)
+    k = len(true_weights)
+    starts = np.arange(len(scene.starts))
+    w = np.tile(true_weights, (len(starts), 1))
+    # First the learner's own kind of search, for rewards around w* (as its π_MAP plans for
+    # posterior modes near w* are): each lands in some basin, and w*'s searches then start from
+    # the best of them all.
+    cloud = normalize(true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal((TRUTH_CLOUD, k)))
+    problems, directions = np.repeat(starts, TRUTH_CLOUD), np.tile(cloud, (len(starts), 1))
+    SamplingPlanner(scene, planner, library).plan(
+        problems, directions, rng, warm_knots=library_warm(library, problems, directions)
+    )
+    # Searches of growing locality, each truth_scale × its budget: the seed plans' wide search;
+    # the planner's CMA-ES with a broad first step (TRUTH_SIGMA: it reaches basins next to the
+    # library's best that the planner's own step does not); the planner itself.
+    wide = planning.seed_planner or scene.seed_config
+    broad = planner.model_copy(update={"cma_sigma": max(TRUTH_SIGMA, planner.cma_sigma)})
+    for search in (wide, broad, planner):
+        SamplingPlanner(scene, search.stronger(planning.truth_scale), library).plan(
+            starts, w, rng, warm_knots=library_warm(library, starts, w)
+        )
+    polish_library(
+        scene, library, starts, w, TRUTH_POLISH_ROUNDS, planning.polish_neighbours, until_converged=True
+    )
+    if expert is not None:
+        best = type(expert)(scene, expert.settings.model_copy(update={"rationality": None}))
+        for s in starts:
+            demo = best.demonstrate(scene.starts[s], true_weights, rng)
+            library.add_features(int(s), demo.features)
+    return np.array([library.best_value(int(s), w[:1])[0] for s in starts])
