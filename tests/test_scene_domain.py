@@ -181,6 +181,11 @@ def test_optimal_values_never_fall_below_a_planned_policy(case):
     assert np.all(v_opt >= w @ domain.start_feature_expectations(policy).T - 1e-12)
 
 
+def with_planning(domain, **update):
+    """The domain's budgets changed in place: its own, and its V*'s."""
+    domain.planning = domain.vstar.planning = domain.planning.model_copy(update=update)
+
+
 def test_plan_samples_plans_the_top_of_the_tail_once_and_raises_its_v_star(case):
     """``planning.plan_samples`` (issue #17): the samples with the largest nEVD are planned one by
     one with π's budget from every evaluation start; their V* rises above the groups' refinement
@@ -190,14 +195,14 @@ def test_plan_samples_plans_the_top_of_the_tail_once_and_raises_its_v_star(case)
     robot = domain.start_feature_expectations(domain.plan(domain.sample_prior(rng, 1)[0]))
     weights = domain.sample_prior(rng, 40)
     base = copy.deepcopy(domain)
-    base.planning = base.planning.model_copy(update={"polish_rounds": 0, "refine_rounds": 0})
+    with_planning(base, polish_rounds=0, refine_rounds=0)
     planned = copy.deepcopy(base)
-    planned.planning = planned.planning.model_copy(update={"plan_samples": 3})
+    with_planning(planned, plan_samples=3)
     v_base = base.optimal_start_values(weights, robot=robot)
-    top = planned._tail(weights, robot, 3)
+    top = planned.vstar.tail(weights, robot, 3)
     v_planned = planned.optimal_start_values(weights, robot=robot)
     for start in range(len(domain.scene.starts)):
-        assert ((planned._refined[start] @ weights[top].T).max(axis=0) > 1 - 1e-12).all()
+        assert ((planned.vstar.refined[start] @ weights[top].T).max(axis=0) > 1 - 1e-12).all()
     assert (v_planned[top] >= v_base[top] - 1e-12).all() and (v_planned[top] > v_base[top]).any()
     sizes = [planned.library.size(s) for s in range(len(domain.scene.starts))]
     planned.optimal_start_values(weights, robot=robot)
@@ -213,12 +218,10 @@ def test_plan_samples_plans_from_the_bound_down(case, monkeypatch):
     robot = domain.start_feature_expectations(domain.plan(domain.sample_prior(rng, 1)[0]))
     weights = domain.sample_prior(rng, 40)
     probe = copy.deepcopy(domain)
-    probe.planning = probe.planning.model_copy(
-        update={"polish_rounds": 0, "refine_rounds": 0, "plan_samples": 3}
-    )
+    with_planning(probe, polish_rounds=0, refine_rounds=0, plan_samples=3)
     planned = []
-    monkeypatch.setattr(probe, "_plan_samples", lambda w: planned.append(w.copy()))
-    order = np.argsort(-probe._nevd(weights, robot), kind="stable")
+    monkeypatch.setattr(probe.vstar, "plan_samples", lambda w: planned.append(w.copy()))
+    order = np.argsort(-probe.vstar.nevd(weights, robot), kind="stable")
     probe.optimal_start_values(weights, robot=robot, bound_index=lambda nevd: 30)  # 10th largest
     assert len(planned) == 1
     np.testing.assert_array_equal(planned[0], weights[order[9:12]])
@@ -258,11 +261,11 @@ def test_ground_truth_scores_planned_and_random_policies(case):
 def test_ground_truth_leaves_the_learner_untouched_and_includes_the_expert():
     domain = small_domain("lava_reacher", seed=14)
     sizes = [domain.library.size(s) for s in range(3)]
-    refined = [r.copy() for r in domain._refined]
+    refined = [r.copy() for r in domain.vstar.refined]
     truth = domain.true_optimal_start_values()
     # Nothing of w* reaches the learner's library or its record of refined directions.
     assert [domain.library.size(s) for s in range(3)] == sizes
-    assert all(np.array_equal(a, b) for a, b in zip(refined, domain._refined, strict=True))
+    assert all(np.array_equal(a, b) for a, b in zip(refined, domain.vstar.refined, strict=True))
     # The truth is at least what the expert shows from every evaluation start (where it is never
     # asked in a run): up to the expert's own randomness (its refinement draws), 0.5% of
     # V* - V_rand.

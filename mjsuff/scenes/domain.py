@@ -40,24 +40,10 @@ demo happens to beat the planner in most; against its own neighbours it favours 
 under which the demo is locally optimal. A batch of weights costs one matrix product and a
 log-sum-exp per demo.
 
-``optimal_start_values`` answers ``V*_w(s)`` for many reward vectors at once from the per-start
-trajectory library (every trajectory simulated: plans, refinements, candidates, random and seed
-trajectories, demos), a lower bound on ``V*`` that costs one matrix product, then refines where
-the bound is decided: given the robot's policy, only the samples in the upper tail of nEVD (the
-``tail_share`` largest) are refined, grouped by the library trajectory that is best for them; each
-group is re-planned from that trajectory (warm-started, short budget) for the group's mean
-direction, everything simulated joins the library; then the ``plan_samples`` samples that can
-move the bound (the one at the order statistic the bound takes and those next below it; the
-samples above it stay above it) are each planned by themselves with π's budget from every
-evaluation start (a group's mean direction was 11–35° from the tail samples it served on lander
-instances, whose optima move with the direction: issue #17); then, for every tail sample from every evaluation
-start, a local quadratic model of the value around the library's best proposes where
-the sample's own optimum is (``mjsuff.scenes.surrogate``: a few simulated rollouts per sample, in
-``polish_rounds`` rounds, the tail re-ranked each round). The answer is the library maximum
-again, so it never drops below it. Plans (π for a reward) are polished the same way for their
-reward. Ground truth plans rewards around ``w*``, then ``w*`` with three searches at larger
-budgets, then polishes ``w*`` until the proposals stop improving (on a copy of the library), and
-the replicate raises it to the best of everything it simulated.
+``optimal_start_values`` is the library's best, refined where the bound is decided
+(``mjsuff.scenes.vstar``); plans (π for a reward) are polished by the local quadratic model for
+their reward (``mjsuff.scenes.search``); ground truth is planned harder, on a copy of the library
+(``mjsuff.scenes.truth``), and the replicate raises it to the best of everything it simulated.
 """
 
 from __future__ import annotations
@@ -69,7 +55,6 @@ from typing import TYPE_CHECKING, cast
 import numpy as np
 from scipy.special import logsumexp
 
-from mjsuff.bounds.regret import normalized_evd
 from mjsuff.domain import BoundIndex, Demo, Domain
 from mjsuff.scenes.library import TrajectoryLibrary
 from mjsuff.scenes.params import Candidates, SceneParams
@@ -79,7 +64,8 @@ from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.search import library_warm, polish_library
 from mjsuff.scenes.truth import true_start_values
-from mjsuff.sphere import normalize, random_unit_vectors
+from mjsuff.scenes.vstar import LibraryVStar
+from mjsuff.sphere import random_unit_vectors
 
 if TYPE_CHECKING:
     from mjsuff.experts.expert import Expert
@@ -165,7 +151,6 @@ class SceneDomain(Domain):
         self.planning = planning
         self.planner = SamplingPlanner(scene, planning.planner or scene.planner_config, self.library)
         self.refiner = SamplingPlanner(scene, planning.refine or scene.refine_config, self.library)
-        self._refined = [np.empty((0, k)) for _ in range(s + p)]
         self.unchanged_tolerance = unchanged_tolerance
         self.match_tolerance = match_tolerance
         self.optimal_gap = optimal_gap
@@ -175,6 +160,16 @@ class SceneDomain(Domain):
         self._random_features = self._add_uniform_trajectories(rng)
         self._add_primitives(expert)
         self._random_mu = self._random_policy(expert, rng)
+        self.vstar = LibraryVStar(
+            scene,
+            self.library,
+            self.planner,
+            self.refiner,
+            planning,
+            self.start_weights,
+            self._random_mu,
+            rng,
+        )
         self._add_seed_plans(rng)
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
         # Fixed, instance-independent directions: they must not draw from the instance's stream.
@@ -331,107 +326,9 @@ class SceneDomain(Domain):
         bound_index: BoundIndex | None = None,
         refine: bool = True,
     ) -> np.ndarray:
-        """``V*_w(s)`` ``(N, S)`` at the evaluation starts: the library's best, refined (module docs).
-
-        Args:
-            robot: The robot policy's feature expectations ``(S, k)``: refinement goes to the
-                samples in the upper ``tail_share`` of nEVD against it. None: to every sample.
-            bound_index: Which order statistic of nEVD the bound takes: ``plan_samples`` plans
-                the samples from it downwards. None: the largest (the top samples).
-            refine: False returns the library's best alone.
-        """
-        weights = np.atleast_2d(weights)
-        s = len(self.scene.starts)
-        for _ in range(self.planning.refine_rounds if refine else 0):
-            if not self._refine(weights[self._tail(weights, robot)], range(s)):
-                break
-        if refine and self.planning.plan_samples:
-            self._plan_decisive(weights, robot, bound_index)
-        for _ in range(self.planning.polish_rounds if refine else 0):
-            focus = weights[self._tail(weights, robot)]
-            self._polish(self.library, np.repeat(np.arange(s), len(focus)), np.tile(focus, (s, 1)), 1)
-        return self._library_values(weights, range(s))
-
-    def _tail(self, weights: np.ndarray, robot: np.ndarray | None, count: int | None = None) -> np.ndarray:
-        """Indices of the ``count`` samples (default: the upper ``tail_share``) with the largest
-        nEVD against the robot's feature expectations ``robot`` by the library's values now (all
-        samples without a robot)."""
-        n = len(weights)
-        if robot is None or n == 1:
-            return np.arange(n)
-        if count is None:
-            count = max(1, int(np.ceil(self.planning.tail_share * n)))
-        return np.argsort(-self._nevd(weights, robot), kind="stable")[:count]
-
-    def _nevd(self, weights: np.ndarray, robot: np.ndarray) -> np.ndarray:
-        """Per-sample nEVD ``(N,)`` of the robot's feature expectations by the library's values now."""
-        sw = self.start_weights
-        v_opt = self._library_values(weights, range(len(self.scene.starts))) @ sw
-        return normalized_evd(v_opt, weights @ (sw @ robot), weights @ (sw @ self._random_mu))
-
-    def _plan_decisive(
-        self, weights: np.ndarray, robot: np.ndarray | None, bound_index: BoundIndex | None
-    ) -> None:
-        """Plan the ``plan_samples`` samples that can move the bound (:meth:`_plan_samples`).
-
-        A planned sample's ``V*`` can only rise, and so its nEVD. The bound is the ``j``-th order
-        statistic of nEVD: samples ranked above it stay above it however much they rise, so they
-        cannot move it; the ones that can are the one at it and those below it, whose ``V*`` may
-        be underestimated by more than their distance to it. So the planned samples are the one
-        at the order statistic and those next below it, by the library's values now (issue #17:
-        at the same cost, the decisive samples' ``V*`` misses a 10×-budget plan by a max of
-        3.85% instead of 14.46% when the top samples are planned). Without a robot to rank by,
-        every sample (as every sample is refined then).
-        """
-        n, count = len(weights), self.planning.plan_samples
-        if robot is None or n == 1:
-            self._plan_samples(weights)
-            return
-        nevd = self._nevd(weights, robot)
-        rank = n - 1 - (bound_index(nevd) if bound_index is not None else n - 1)
-        self._plan_samples(weights[np.argsort(-nevd, kind="stable")[rank : rank + count]])
-
-    def _plan_samples(self, weights: np.ndarray) -> None:
-        """Plan each of ``weights`` from every evaluation start with π's budget, warm-started
-        from the library, into the library; a (sample, start) within ``revisit_cosine`` of a
-        direction already refined or planned there is skipped."""
-        problems, directions = [], []
-        for start in range(len(self.scene.starts)):
-            for direction in normalize(weights):
-                if self._claim(start, direction):
-                    problems.append(start)
-                    directions.append(direction)
-        if problems:
-            starts, directions_ = np.array(problems), np.array(directions)
-            warm = library_warm(self.library, starts, directions_)
-            self.planner.plan(starts, directions_, self.rng, warm_knots=warm)
-
-    def _claim(self, start: int, direction: np.ndarray) -> bool:
-        """Record ``direction`` as refined or planned from ``start``; False, recording nothing,
-        when one within ``revisit_cosine`` of it already is."""
-        done = self._refined[start]
-        if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
-            return False
-        self._refined[start] = np.concatenate([done, direction[None]])
-        return True
-
-    def _refine(self, weights: np.ndarray, starts) -> bool:
-        """One refinement round for ``weights`` from ``starts``; False when nothing was new."""
-        problems, groups = [], []
-        for start in starts:
-            _, best = self.library.best(start, weights)
-            index, counts = np.unique(best, return_counts=True)
-            for j in index[np.argsort(-counts, kind="stable")][: self.planning.refine_groups]:
-                direction = normalize(weights[best == j].mean(axis=0))
-                if self._claim(start, direction):
-                    problems.append((start, j))
-                    groups.append(direction)
-        if not problems:
-            return False
-        starts_ = np.array([p[0] for p in problems])
-        warm = np.stack([self.library.arrays(st)[1][j] for st, j in problems])
-        self.refiner.plan(starts_, np.array(groups), self.rng, warm_knots=warm)
-        return True
+        """``V*_w(s)`` ``(N, S)`` at the evaluation starts: the library's best, refined where the
+        bound is decided (``mjsuff.scenes.vstar``)."""
+        return self.vstar.start_values(weights, robot, bound_index, refine)
 
     def pool_regrets(self, weights: np.ndarray, policy: np.ndarray) -> np.ndarray:
         """Per-sample EVD ``(N, P)`` of ``policy`` (planned by :meth:`plan`) at each pool start
@@ -439,11 +336,7 @@ class SceneDomain(Domain):
         the same planner makes for the policy's reward from that start."""
         weights = np.atleast_2d(weights)
         mu = self.pool_features(policy)  # first: planning from the pool joins the library
-        return self._library_values(weights, self.pool) - weights @ mu.T
-
-    def _library_values(self, weights: np.ndarray, starts) -> np.ndarray:
-        """The library's best value ``(N, len(starts))`` under each of ``weights`` ``(N, k)``."""
-        return np.stack([self.library.best_value(int(s), weights) for s in starts], axis=1)
+        return self.vstar.library_values(weights, self.pool) - weights @ mu.T
 
     def true_optimal_start_values(self) -> np.ndarray:
         """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once
@@ -465,7 +358,7 @@ class SceneDomain(Domain):
         """The best value under ``w`` of everything simulated from each evaluation start so far
         ``(S,)`` (the learner's library: plans, refinements, seeds, candidates)."""
         w = np.atleast_2d(np.asarray(w, dtype=float))
-        return self._library_values(w, range(len(self.scene.starts)))[0]
+        return self.vstar.library_values(w, range(len(self.scene.starts)))[0]
 
     def random_start_feature_expectations(self) -> np.ndarray:
         return self._random_mu
