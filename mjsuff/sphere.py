@@ -22,3 +22,8 @@ def fibonacci_sphere(n: int) -> np.ndarray:
     r = np.sqrt(1.0 - z * z)
     phi = np.pi * (3.0 - np.sqrt(5.0)) * i
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def random_negative_unit_vectors(rng: np.random.Generator, n: int, k: int) -> np.ndarray:
+    """``n`` independent uniform draws from the all-negative orthant of the unit sphere -> ``(n, k)``."""
+    return -np.abs(random_unit_vectors(rng, n, k))

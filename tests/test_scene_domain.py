@@ -66,7 +66,7 @@ def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(n
     w = fresh.true_weights
     for demo in (fresh.demonstrate(s, np.random.default_rng(4)) for s in range(2)):
         candidates = fresh.candidate_features(demo)
-        family = fresh._family_features(int(fresh.pool[demo.start]))
+        family = fresh.candidate_sets.family(int(fresh.pool[demo.start]))
         assert len(family) >= 5 and np.isfinite(candidates).all()
         np.testing.assert_array_equal(candidates[1 : 1 + len(family)], family)
         assert (family @ w <= candidates[0] @ w + 1e-12).all()

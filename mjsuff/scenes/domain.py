@@ -23,21 +23,8 @@ primitives (its path family fitted to the robot's knots) and the scene's own
 every start, and with plans of ``seed_directions`` prior draws (a wide search), so it holds each
 mode's optimum before the first demo.
 
-Likelihood (DESIGN, trajectory-level Bayesian IRL). Demo ``j`` from pool start ``s_j`` with
-features ``φ_j`` has ``P(φ_j | w) = exp(β w·φ_j) / Σ_{τ ∈ C_j} exp(β w·φ(τ))`` over a candidate set
-``C_j`` fixed when the demo is first seen: the demo itself; either (``domain.params.candidates =
-"library"``) the library's best trajectory from ``s_j`` for each of a fixed spread of reward
-directions over the prior's orthant (library optima: plans, refinements, or random trajectories),
-or (``"family"``) the demonstrator's own first candidates from ``s_j`` (its coarse path family,
-executed), the set a demonstrator that shows its best must have beaten; uniform-random
-trajectories from ``s_j``; and the demo's own controls under smooth perturbations of a few sizes
-(``mjsuff.scenes.perturbation``), simulated. With ``"library"`` the likelihood is misspecified
-for a demonstrator restricted to a path family: the library's optima beat its demos under ``w*``
-in a direction shared by an instance's demos, so more demos move the posterior away from ``w*``
-(README, issue #17, "Why the bound misses"). The perturbations
-matter: against planner trajectories alone the likelihood would favour whatever directions the
-demo happens to beat the planner in most; against its own neighbours it favours the directions
-under which the demo is locally optimal. A batch of weights costs one matrix product and a
+Likelihood (DESIGN, trajectory-level Bayesian IRL): a Boltzmann choice of each demo among its
+candidate set (``mjsuff.scenes.candidates``); a batch of weights costs one matrix product and a
 log-sum-exp per demo.
 
 ``optimal_start_values`` is the library's best, refined where the bound is decided
@@ -48,7 +35,6 @@ their reward (``mjsuff.scenes.search``); ground truth is planned harder, on a co
 
 from __future__ import annotations
 
-import zlib
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, cast
 
@@ -56,16 +42,16 @@ import numpy as np
 from scipy.special import logsumexp
 
 from mjsuff.domain import BoundIndex, Demo, Domain
+from mjsuff.scenes.candidates import CandidateSets
 from mjsuff.scenes.library import TrajectoryLibrary
 from mjsuff.scenes.params import Candidates, SceneParams
-from mjsuff.scenes.perturbation import perturb_controls
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.search import library_warm, polish_library
 from mjsuff.scenes.truth import true_start_values
 from mjsuff.scenes.vstar import LibraryVStar
-from mjsuff.sphere import random_unit_vectors
+from mjsuff.sphere import random_negative_unit_vectors
 
 if TYPE_CHECKING:
     from mjsuff.experts.expert import Expert
@@ -76,9 +62,6 @@ RANDOM_TRAJECTORIES = 16
 RANDOM_PATHS = 16
 #: Most rounds of ``RANDOM_PATHS`` draws until that many paths could be executed.
 RANDOM_PATH_ROUNDS = 8
-#: Reward directions (fixed, spread over the prior's orthant) whose library optimum joins a
-#: demo's candidate set.
-CANDIDATE_DIRECTIONS = 64
 
 
 def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
@@ -88,7 +71,7 @@ def draw_true_weights(rng: np.random.Generator, k: int) -> np.ndarray:
 
 def sample_orthant(rng: np.random.Generator, count: int, k: int) -> np.ndarray:
     """``count`` draws ``(count, k)`` uniform on the all-negative orthant of the unit sphere."""
-    return -np.abs(random_unit_vectors(rng, count, k))
+    return random_negative_unit_vectors(rng, count, k)
 
 
 class SceneDomain(Domain):
@@ -155,9 +138,9 @@ class SceneDomain(Domain):
         self.match_tolerance = match_tolerance
         self.optimal_gap = optimal_gap
         self.candidates = candidates
-        self._family: dict[int, np.ndarray] = {}
         # The library before the first demo, in this order (each step draws from ``rng`` in turn).
         self._random_features = self._add_uniform_trajectories(rng)
+        self.candidate_sets = CandidateSets(scene, self.library, expert, candidates, self._random_features)
         self._add_primitives(expert)
         self._random_mu = self._random_policy(expert, rng)
         self.vstar = LibraryVStar(
@@ -172,9 +155,6 @@ class SceneDomain(Domain):
         )
         self._add_seed_plans(rng)
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
-        # Fixed, instance-independent directions: they must not draw from the instance's stream.
-        self._directions = sample_orthant(np.random.default_rng(0), CANDIDATE_DIRECTIONS, k)
-        self._candidates: dict[bytes, np.ndarray] = {}
         self._features: dict[bytes, np.ndarray] = {}
         self._planned_for: dict[bytes, np.ndarray] = {}
         self._pool_plans: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
@@ -401,62 +381,15 @@ class SceneDomain(Domain):
         return Demo(start=start, poor=poor, data=data)
 
     def candidate_features(self, demo: Demo) -> np.ndarray:
-        """The features ``(M, k)`` of demo's candidate set ``C_j``, the demo first.
-
-        Fixed the first time the demo is seen, when the demo also joins its start's library.
-        """
-        phi = np.asarray(demo.data["features"], dtype=float)
-        key = np.int64(demo.start).tobytes() + phi.tobytes()
-        if key not in self._candidates:
-            if phi.shape != (self.num_features,) or not np.isfinite(phi).all():
-                raise ValueError(
-                    f"demo from pool start {demo.start}: features must be "
-                    f"{self.num_features} finite numbers, got {phi}"
-                )
-            s = int(self.pool[demo.start])
-            if self.candidates == "family":
-                alternatives = self._family_features(s)
-            else:
-                features, _ = self.library.arrays(s)
-                alternatives = features[np.unique(self.library.best(s, self._directions)[1])]
-            randoms = self._random_features[s]
-            parts = [phi[None], alternatives, randoms[np.isfinite(randoms).all(axis=1)]]
-            if "controls" in demo.data:
-                near = self._perturbed(
-                    s, np.asarray(demo.data["controls"], dtype=float), np.random.default_rng(zlib.crc32(key))
-                )
-                parts.append(near)
-                self.library.add_features(s, near)
-            self._candidates[key] = np.concatenate(parts)
-            self.library.add_features(s, phi)
-        return self._candidates[key]
-
-    def _family_features(self, start: int) -> np.ndarray:
-        """Features of the demonstrator's first candidates (``Expert.coarse_params``) executed
-        from library start ``start`` ``(M, k)``, those it could follow; cached per start."""
-        if start not in self._family:
-            if self.expert is None:
-                raise RuntimeError("candidates = 'family' needs the domain's expert")
-            q = self.scene.all_starts[start]
-            done, _ = self.expert.execute(q, self.expert.coarse_params(q))
-            features = done.features.reshape(-1, self.num_features)
-            self._family[start] = features[np.isfinite(features).all(axis=1)]
-        return self._family[start]
+        """The features ``(M, k)`` of the demo's candidate set ``C_j``, the demo first
+        (``mjsuff.scenes.candidates``); fixed the first time the demo is seen, when the demo also
+        joins its start's library."""
+        return self.candidate_sets.features(demo)
 
     def alternatives_better(self, demo: Demo, w: np.ndarray) -> int:
         """Members of the demo's candidate set worth more than the demo under ``w`` (ties excluded)."""
         values = self.candidate_features(demo) @ np.asarray(w, dtype=float)
         return int(np.sum(values[1:] > values[0] + 1e-12))
-
-    def _perturbed(self, start: int, controls: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Features of smooth perturbations of ``controls`` ``(T, nu)``
-        (``mjsuff.scenes.perturbation``), simulated from library start ``start``; diverged ones
-        dropped."""
-        batch = perturb_controls(self.scene.spline, controls, rng)
-        _, features = self.scene.simulate_controls(
-            np.repeat(self.scene.all_starts[start][None], len(batch), axis=0), batch
-        )
-        return features[np.isfinite(features).all(axis=1)]
 
     def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
         """``Σ_j log P(φ_j | w)`` for weights ``(N, k)`` -> ``(N,)`` (see the module docstring)."""
