@@ -14,7 +14,7 @@ import pytest
 from mjsuff.atomic import FILE_MODE
 from mjsuff.cli import main
 from mjsuff.cli.console import fmt
-from mjsuff.experiment import backends
+from mjsuff.experiment import backend
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import RECORDING, run_scenario
 from mjsuff.recording import Recording
@@ -128,7 +128,7 @@ def test_unwritable_out_fails_before_work(tmp_path):
 
 def test_out_that_is_a_file_or_not_empty_fails_before_work(tmp_path, capsys, monkeypatch):
     calls = []
-    monkeypatch.setattr(backends, "run_replicate", lambda *a, **k: calls.append(1) or [])
+    monkeypatch.setattr(backend, "run_replicate", lambda *a, **k: calls.append(1) or [])
     a_file = tmp_path / "file"
     a_file.write_text("x")
     assert run_cli(a_file) == 2
@@ -144,7 +144,7 @@ def test_out_that_is_a_file_or_not_empty_fails_before_work(tmp_path, capsys, mon
 @pytest.mark.parametrize("where", ["under-a-file", "proc"])
 def test_unwritable_out_even_for_root(tmp_path, capsys, monkeypatch, where):
     calls = []
-    monkeypatch.setattr(backends, "run_replicate", lambda *a, **k: calls.append(1) or [])
+    monkeypatch.setattr(backend, "run_replicate", lambda *a, **k: calls.append(1) or [])
     if where == "proc":
         out = Path("/proc/mjsuff-cannot-write-here/run")
     else:
@@ -157,14 +157,14 @@ def test_unwritable_out_even_for_root(tmp_path, capsys, monkeypatch, where):
 
 
 def test_interrupt_keeps_finished_replicates(tmp_path, monkeypatch):
-    real = backends.run_replicate
+    real = backend.run_replicate
 
     def interrupt_second(scenario, replicate, *rest):
         if replicate == 1:
             raise KeyboardInterrupt
         return real(scenario, replicate, *rest)
 
-    monkeypatch.setattr(backends, "run_replicate", interrupt_second)
+    monkeypatch.setattr(backend, "run_replicate", interrupt_second)
     with pytest.raises(KeyboardInterrupt):
         run_scenario(small_scenario(), tmp_path / "r")
     steps = pd.read_parquet(tmp_path / "r" / "steps.parquet")

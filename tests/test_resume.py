@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from mjsuff.cli import main
-from mjsuff.experiment import backends
+from mjsuff.experiment import backend
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.runner import run_scenario
 from tests.conftest import small_scenario
@@ -85,17 +85,17 @@ def test_resume_can_add_replicates_and_refuses_a_different_scenario(tmp_path):
     out = tmp_path / "r"
     run_scenario(small_scenario(replicates=1), out, record=False)
     calls = []
-    real = backends.run_replicate
+    real = backend.run_replicate
 
     def counting(scenario, replicate, *rest):
         calls.append(replicate)
         return real(scenario, replicate, *rest)
 
-    backends.run_replicate = counting
+    backend.run_replicate = counting
     try:
         result = run_scenario(small_scenario(replicates=2), out, record=False, resume=True)
     finally:
-        backends.run_replicate = real
+        backend.run_replicate = real
     assert calls == [1] and result.completed == 2
     with pytest.raises(OutputError, match=r"demos\.beta"):
         run_scenario(small_scenario(replicates=2, **{"demos.beta": 5.0}), out, resume=True)

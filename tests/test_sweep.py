@@ -6,7 +6,7 @@ import json
 import pandas as pd
 import pytest
 
-from mjsuff.experiment import backends
+from mjsuff.experiment import backend
 from mjsuff.experiment.runner import run_scenario
 from mjsuff.experiment.scenario import ScenarioError, load_scenario
 from mjsuff.report import load_cells
@@ -41,7 +41,7 @@ def test_each_cell_equals_its_single_run(tmp_path):
 
 
 def test_interrupted_sweep_keeps_and_summarizes_what_finished(tmp_path, monkeypatch):
-    real, calls = backends.run_replicate, []
+    real, calls = backend.run_replicate, []
 
     def interrupt_third(scenario, replicate, *rest):
         calls.append(replicate)
@@ -49,7 +49,7 @@ def test_interrupted_sweep_keeps_and_summarizes_what_finished(tmp_path, monkeypa
             raise KeyboardInterrupt
         return real(scenario, replicate, *rest)
 
-    monkeypatch.setattr(backends, "run_replicate", interrupt_third)
+    monkeypatch.setattr(backend, "run_replicate", interrupt_third)
     scenario = small_scenario(sweep={"demos.beta": [5.0, 20.0]})
     with pytest.raises(KeyboardInterrupt):
         run_scenario(scenario, tmp_path / "s")
@@ -59,7 +59,7 @@ def test_interrupted_sweep_keeps_and_summarizes_what_finished(tmp_path, monkeypa
     assert run["interrupted"] and run["completed_replicates"] == 2
     # A report covers the finished cell; resuming finishes the rest.
     assert len(load_cells([tmp_path / "s"])) == 1
-    monkeypatch.setattr(backends, "run_replicate", real)
+    monkeypatch.setattr(backend, "run_replicate", real)
     result = run_scenario(scenario, tmp_path / "s", resume=True)
     assert result.completed == 4 and not result.interrupted
 

@@ -28,7 +28,7 @@ import pandas as pd
 
 from mjsuff import __version__
 from mjsuff.atomic import atomic_write_bytes, atomic_write_parquet, atomic_write_text
-from mjsuff.experiment.backends import Backend, ReplicateResult, ReplicateTask, SerialBackend
+from mjsuff.experiment.backend import Backend, ReplicateResult, ReplicateTask, SerialBackend
 from mjsuff.experiment.measures import sampler_diagnostics, summarize
 from mjsuff.experiment.replicate import DemoSource
 from mjsuff.experiment.results import (

@@ -1,0 +1,128 @@
+"""What every backend shares: a replicate as a task, its result, the Backend interface, and the
+serial backend that runs tasks in this process.
+
+A replicate is a pure function of (scenario, replicate index, demo source): its randomness comes
+from its own seed streams (``mjsuff.seeds``), so every backend gives the same rows for the same
+seeds. A backend takes a list of ``ReplicateTask`` and yields ``(task, ReplicateResult)`` as each
+one finishes, in whatever order they finish; the runner writes each to disk at once.
+"""
+
+from __future__ import annotations
+
+import abc
+import tempfile
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from threadpoolctl import threadpool_limits
+
+from mjsuff.errors import MjsuffError
+from mjsuff.experiment.replicate import DemoSource, StepCallback, run_replicate
+from mjsuff.experiment.scenario import Scenario
+
+#: Environment variable read by ``mjsuff.scenes.simulate.Simulator`` for its default thread count.
+SIM_THREADS_ENV = "MJSUFF_SIM_THREADS"
+
+TaskProgress = Callable[["ReplicateTask", int, int], None]
+"""Called as ``(task, step, max_demos)`` after each demonstration step of a task."""
+
+
+class BackendError(MjsuffError, RuntimeError):
+    """A backend cannot be used (e.g. Ray is not installed); the message is one line for the user."""
+
+
+class ClusterConnectionError(BackendError):
+    """The Ray cluster at ``--address`` cannot be used from here: nothing answers there, or it
+    refused the connection (token authentication); the message is one line saying what to do."""
+
+    exit_code = 69  # EX_UNAVAILABLE
+
+
+@dataclass(frozen=True)
+class ReplicateTask:
+    """One replicate of one scenario (a sweep cell).
+
+    Attributes:
+        key: The task's identity in the run (``(cell, replicate)``), echoed back.
+        scenario: The fully resolved scenario of the cell.
+        replicate: Replicate index (selects the seed streams).
+        demo_source: Saved demos replacing the live expert, or None.
+        record: Whether to make the replicate's Rerun recording.
+    """
+
+    key: tuple[int, int]
+    scenario: Scenario
+    replicate: int
+    demo_source: DemoSource | None = None
+    record: bool = False
+
+
+@dataclass(frozen=True)
+class ReplicateResult:
+    """What a finished task sends back: its rows and its recording (``.rrd`` bytes) if any.
+
+    The recording is streamed to a local temporary file while the replicate runs (memory does
+    not grow with it) and read back once at the end, so workers need no shared filesystem.
+    """
+
+    rows: list[dict[str, Any]]
+    recording: bytes | None = None
+
+
+def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> ReplicateResult:
+    """Run one task in this process (BLAS limited to one thread: the matrices are small)."""
+    if not task.record:
+        with threadpool_limits(limits=1):
+            return ReplicateResult(run_replicate(task.scenario, task.replicate, on_step, task.demo_source))
+    from mjsuff.recording.recorder import RunRecorder  # Rerun only when recording
+
+    with tempfile.TemporaryDirectory(prefix="mjsuff-rec-") as tmp:
+        path = Path(tmp) / f"replicate-{task.replicate:05d}.rrd"
+        recorder = RunRecorder(path, task.scenario, default_layout=task.replicate == 0)
+        try:
+            with threadpool_limits(limits=1):
+                rows = run_replicate(
+                    task.scenario,
+                    task.replicate,
+                    on_step,
+                    task.demo_source,
+                    recorder.replicate(task.replicate),
+                )
+        finally:
+            recorder.close()
+        return ReplicateResult(rows, path.read_bytes())
+
+
+class Backend(abc.ABC):
+    """Runs replicate tasks; ``run`` yields each ``(task, rows)`` as soon as it finishes."""
+
+    name: str = "backend"
+
+    @abc.abstractmethod
+    def run(
+        self, tasks: list[ReplicateTask], on_step: TaskProgress | None = None
+    ) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
+        """Run ``tasks``; on an exception or when the consumer stops, unstarted tasks are cancelled."""
+
+    def describe(self) -> str:
+        """A short description for run.json and the summary line."""
+        return self.name
+
+    def connect(self) -> None:
+        """Make sure the backend can run tasks, before anything is written (here: nothing to do)."""
+        return
+
+
+class SerialBackend(Backend):
+    """Every task in this process, one after another."""
+
+    name = "serial"
+
+    def run(
+        self, tasks: list[ReplicateTask], on_step: TaskProgress | None = None
+    ) -> Iterator[tuple[ReplicateTask, ReplicateResult]]:
+        for task in tasks:
+            callback = None if on_step is None else (lambda s, m, t=task: on_step(t, s, m))
+            yield task, execute(task, callback)
