@@ -4,7 +4,8 @@ import pandas as pd
 import pytest
 
 from mjsuff.experiment.backends import BackendError, LocalBackend, SerialBackend, make_backend
-from mjsuff.experiment.runner import RECORDING, run_scenario
+from mjsuff.experiment.run_summary import RECORDING
+from mjsuff.experiment.runner import run_scenario
 from mjsuff.recording import Recording
 from tests.conftest import small_scenario
 

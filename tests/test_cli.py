@@ -16,7 +16,8 @@ from mjsuff.cli import main
 from mjsuff.cli.console import fmt
 from mjsuff.experiment import backend
 from mjsuff.experiment.results import OutputError
-from mjsuff.experiment.runner import RECORDING, run_scenario
+from mjsuff.experiment.run_summary import RECORDING
+from mjsuff.experiment.runner import run_scenario
 from mjsuff.recording import Recording
 from tests.conftest import small_scenario
 

@@ -10,7 +10,8 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from mjsuff.experiment.runner import RECORDING, run_scenario
+from mjsuff.experiment.run_summary import RECORDING
+from mjsuff.experiment.runner import run_scenario
 from mjsuff.recording import Recording, SceneLogger
 from mjsuff.scenes.lander import Lander, LanderParams
 from mjsuff.scenes.lava_reacher import LavaReacher, LavaReacherParams

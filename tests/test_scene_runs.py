@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from mjsuff.cli import main
-from mjsuff.experiment.runner import RECORDING
+from mjsuff.experiment.run_summary import RECORDING
 from mjsuff.recording import Recording
 from mjsuff.scenes.domain import SceneDomain
 

@@ -28,7 +28,8 @@ from mjsuff.cli.console import (
 from mjsuff.cli.options import load, quiet_option, scenario_options
 from mjsuff.errors import MjsuffError, UsageError, in_context
 from mjsuff.experiment.backends import make_backend
-from mjsuff.experiment.runner import CellResult, RunResult, run_scenario
+from mjsuff.experiment.run_summary import CellResult, RunResult
+from mjsuff.experiment.runner import run_scenario
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experts.demo_set import DemoFileError
 
