@@ -14,6 +14,7 @@ import pytest
 from mjsuff.atomic import FILE_MODE
 from mjsuff.cli import main
 from mjsuff.cli.console import fmt
+from mjsuff.cli.run import SUMMARY_COLUMNS
 from mjsuff.experiment import backend
 from mjsuff.experiment.results import OutputError
 from mjsuff.experiment.run_summary import RECORDING
@@ -378,20 +379,7 @@ def test_run_summary_is_whole_in_a_log(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "…" not in proc.stdout
     header = next(line for line in proc.stdout.splitlines() if line.startswith("┃"))
-    assert [c.strip() for c in header.strip("┃").split("┃")] == [
-        "rule",
-        "param",
-        "ε",
-        "F1",
-        "accuracy",
-        "bound err",
-        "demos",
-        "± sem",
-        "states",
-        "TPR",
-        "FPR",
-        "optimality",
-    ]
+    assert [c.strip() for c in header.strip("┃").split("┃")] == list(SUMMARY_COLUMNS)
     entries = json.loads((tmp_path / "r" / "summary.json").read_text())["entries"]
     expected = [
         [
