@@ -3,6 +3,7 @@ definitions, clear errors for directories that are not runs."""
 
 import math
 import re
+import shutil
 
 import numpy as np
 import pandas as pd
@@ -102,6 +103,17 @@ def test_not_a_run_is_a_clear_error(tmp_path, capsys):
         load_cells([tmp_path])
     assert main(["report", str(tmp_path)]) == 2
     assert str(tmp_path) in capsys.readouterr().err
+
+
+def test_a_run_without_rows_is_a_clear_error_and_writes_nothing(sweep_run, tmp_path, capsys):
+    """Issue #19, item 7: it was a KeyError traceback, with a partial figure left behind."""
+    cell = next(p.parent for p in sorted(sweep_run.glob("cells/*/steps.parquet")))
+    empty = tmp_path / "empty"
+    shutil.copytree(cell, empty)
+    pd.read_parquet(empty / "steps.parquet").iloc[0:0].to_parquet(empty / "steps.parquet")
+    assert main(["report", str(empty), "--out", str(tmp_path / "report")]) == 2
+    assert "steps.parquet: no rows" in capsys.readouterr().err
+    assert not (tmp_path / "report").exists()
 
 
 def _steps(rule, param, replicate, decisions, nevds):

@@ -1,6 +1,7 @@
 """Kill and resume: a run killed (SIGKILL, no clean-up) after some replicates and resumed gives the
 same results as an uninterrupted run, without redoing or duplicating finished replicates."""
 
+import json
 import os
 import signal
 import subprocess
@@ -84,6 +85,7 @@ def test_killed_run_resumes_to_the_uninterrupted_result(tmp_path):
 def test_resume_can_add_replicates_and_refuses_a_different_scenario(tmp_path):
     out = tmp_path / "r"
     run_scenario(small_scenario(replicates=1), out, record=False)
+    first = json.loads((out / "run.json").read_text())
     calls = []
     real = backend.run_replicate
 
@@ -97,6 +99,11 @@ def test_resume_can_add_replicates_and_refuses_a_different_scenario(tmp_path):
     finally:
         backend.run_replicate = real
     assert calls == [1] and result.completed == 2
+    # Issue #19, item 7: run.json's elapsed time covers both invocations, not the last alone.
+    both = json.loads((out / "run.json").read_text())
+    assert both["invocations"] == 2 and first["invocations"] == 1
+    total = first["elapsed_seconds"] + both["elapsed_seconds_last"]
+    assert both["elapsed_seconds"] == pytest.approx(total, abs=2e-3)
     with pytest.raises(OutputError, match=r"demos\.beta"):
         run_scenario(small_scenario(replicates=2, **{"demos.beta": 5.0}), out, resume=True)
     with pytest.raises(OutputError, match=r"no config\.toml"):

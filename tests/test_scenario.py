@@ -52,6 +52,20 @@ def test_shipped_scenarios_load_and_round_trip(path):
         ('name = "x"\n[domain]\nname = "chess"\n', "domain.name: expected one of"),
         ("name = \n", "not valid TOML"),
         ('[domain]\nname = "gridworld"\n', "name: missing required key"),
+        # Issue #19: a name becomes a file name; duplicates would run and count twice.
+        ('name = "../escaped"\n[domain]\nname = "gridworld"\n', "name: expected letters, digits"),
+        ('name = "a/b"\n[domain]\nname = "gridworld"\n', "name: expected letters, digits"),
+        ('name = ".hidden"\n[domain]\nname = "gridworld"\n', "name: expected letters, digits"),
+        (
+            GOOD + "[rules]\nnevd_thresholds = [0.1, 0.2, 0.1]\n",
+            "rules.nevd_thresholds: 0.1 given more than once",
+        ),
+        (GOOD + "[rules]\npatience = [2, 2]\n", "rules.patience: 2 given more than once"),
+        ("replicates = 100001\n" + GOOD, "replicates: input should be less than or equal to 100000"),
+        (
+            "replicates = 60000\n" + GOOD + "[sweep]\n'demos.beta' = [1.0, 2.0]\n",
+            "replicates: 2 sweep cells × 60,000 replicates plan more than 100,000",
+        ),
     ],
 )
 def test_bad_scenarios_name_file_key_and_expectation(tmp_path, text, expected):
@@ -61,6 +75,17 @@ def test_bad_scenarios_name_file_key_and_expectation(tmp_path, text, expected):
         load_scenario(path)
     message = str(info.value)
     assert message.startswith(str(path)) and expected in message and "\n" not in message
+
+
+def test_a_leading_bom_is_read_and_other_encodings_are_named(tmp_path):
+    """Issue #19, item 7: a UTF-8 BOM is accepted; Latin-1 is called what it is, not UTF-8."""
+    bom = tmp_path / "bom.toml"
+    bom.write_bytes(b"\xef\xbb\xbf" + GOOD.encode())
+    assert load_scenario(bom).domain.name == "gridworld"
+    latin = tmp_path / "latin.toml"
+    latin.write_bytes(GOOD.replace('name = "x"', 'name = "x"  # café').encode("latin-1"))
+    with pytest.raises(ScenarioError, match=r"latin.toml: not UTF-8 text \(byte 0xe9 at offset \d+\)"):
+        load_scenario(latin)
 
 
 def test_missing_file(tmp_path):

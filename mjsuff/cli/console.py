@@ -6,6 +6,7 @@ import math
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 EXIT_USAGE = 2
@@ -36,22 +37,22 @@ out = _Stdout()
 
 
 def say(message: str) -> None:
-    """One plain line on stdout (no markup, no wrapping)."""
-    out.print(message, highlight=False, soft_wrap=True)
+    """One plain line on stdout (not wrapped; brackets in it are text, not markup)."""
+    out.print(escape(message), highlight=False, soft_wrap=True)
 
 
 def note(message: str) -> None:
     """One plain line on stderr: an interruption, a hint."""
-    err.print(message, highlight=False, soft_wrap=True)
+    err.print(escape(message), highlight=False, soft_wrap=True)
 
 
 def error(message: str) -> None:
     """The one line an error gets, on stderr."""
-    err.print(f"[red]error:[/] {message}", highlight=False, soft_wrap=True)
+    err.print(f"[red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
 
 
 def warning(message: str) -> None:
-    err.print(f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True)
+    err.print(f"[yellow]warning:[/] {escape(message)}", highlight=False, soft_wrap=True)
 
 
 def fmt(x: Any, digits: int = 2) -> str:

@@ -3,12 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
-import signal
-import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +22,7 @@ from mjsuff.cli.console import (
     warning,
 )
 from mjsuff.cli.options import load, quiet_option, scenario_options
+from mjsuff.cli.signals import sigterm_interrupts
 from mjsuff.errors import MjsuffError, UsageError, in_context
 from mjsuff.experiment.backends import make_backend
 from mjsuff.experiment.run_summary import CellResult, RunResult
@@ -147,28 +144,24 @@ def cmd_run(args: argparse.Namespace) -> int:
     except DemoFileError as exc:  # found mid-run: a demo set without the demo asked for
         raise UsageError(f"{exc} (finished replicates are saved in {directory})") from exc
     except KeyboardInterrupt:
-        note(f"interrupted: finished replicates are saved in {directory} (steps.parquet, summary.json)")
+        note(interrupted_note(directory))
         return EXIT_INTERRUPTED
     print_summary(result, scenario, directory, quiet=args.quiet, recorded=not args.no_record)
     return 0
 
 
-@contextlib.contextmanager
-def sigterm_interrupts() -> Iterator[None]:
-    """Treat SIGTERM (``kill``, a batch scheduler's stop) like Ctrl-C while a run goes: finished
-    replicates are kept and summarized, worker processes are stopped."""
-
-    def interrupt(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+def interrupted_note(directory: Path) -> str:
+    """What an interrupted run left in ``directory``: the files that are there, and how to go on."""
+    finished = len(list(directory.glob("**/replicates/replicate-*.parquet")))
+    go_on = f"mjsuff run ... --out {directory} --resume continues"
+    if not finished:
+        return f"interrupted before any replicate finished: nothing but the settings in {directory}; {go_on}"
+    kept = [
+        p.name
+        for p in (directory / n for n in ("steps.parquet", "summary.json", "recording.rrd"))
+        if p.exists()
+    ]
+    return f"interrupted: {finished} finished replicate(s) kept in {directory} ({', '.join(kept)}); {go_on}"
 
 
 def print_summary(

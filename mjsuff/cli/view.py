@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from mjsuff.cli.console import note, say
+from mjsuff.cli.signals import sigterm_interrupts
 from mjsuff.errors import UsageError
 
 
@@ -27,6 +28,13 @@ def add_parser(commands: Any) -> None:
         "--web", action="store_true", help="serve the web viewer instead (works without a display)"
     )
     view.add_argument("--port", type=int, default=9090, help="web viewer port (with --web)")
+    view.add_argument(
+        "--bind",
+        default="127.0.0.1",
+        metavar="ADDRESS",
+        help="with --web, the address to serve on (default 127.0.0.1: this machine only; 0.0.0.0 "
+        "serves every interface, to anyone who can reach them, without authentication)",
+    )
     view.set_defaults(func=cmd_view)
 
 
@@ -46,8 +54,9 @@ def cmd_view(args: argparse.Namespace) -> int:
     rerun = shutil.which("rerun")
     command = [rerun] if rerun else [sys.executable, "-m", "rerun"]
     if args.web:
-        command += ["--web-viewer", "--web-viewer-port", str(args.port), str(path)]
-        say(f"serving {path} to a browser at http://localhost:{args.port} (Ctrl-C stops)")
+        command += ["--web-viewer", "--web-viewer-port", str(args.port), "--bind", args.bind, str(path)]
+        host = "localhost" if args.bind in ("127.0.0.1", "::1", "localhost") else args.bind
+        say(f"serving {path} to a browser at http://{host}:{args.port} (Ctrl-C stops)")
     elif not has_display():
         note(
             f"no display here to open {path} on. Either copy it to a machine with one and "
@@ -57,7 +66,21 @@ def cmd_view(args: argparse.Namespace) -> int:
         return 1
     else:
         command.append(str(path))
+    return run_viewer(command)
+
+
+def run_viewer(command: list[str]) -> int:
+    """Run the viewer until it exits; Ctrl-C or SIGTERM to mjsuff stops it too (a web viewer's
+    server would otherwise outlive mjsuff). Returns its exit status (0 when stopped)."""
+    viewer = subprocess.Popen(command)
     try:
-        return subprocess.call(command)
+        with sigterm_interrupts():
+            return viewer.wait()
     except KeyboardInterrupt:
+        viewer.terminate()
+        try:
+            viewer.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            viewer.kill()
+            viewer.wait()
         return 0

@@ -151,7 +151,7 @@ def finalize(
     simulation = simulation_totals(steps)
     sampler = sampler_totals(steps)
     run = {
-        **_run_info(scenario, backend, recorded, started, interrupted),
+        **_run_info(directory, scenario, backend, recorded, started, interrupted),
         "planned_replicates": scenario.replicates,
         "completed_replicates": completed,
         **simulation,
@@ -175,9 +175,19 @@ def finalize(
 
 
 def _run_info(
-    scenario: Scenario, backend: str, recorded: bool, started: float, interrupted: bool
+    directory: Path, scenario: Scenario, backend: str, recorded: bool, started: float, interrupted: bool
 ) -> dict[str, Any]:
-    """The fields every ``run.json`` starts with."""
+    """The fields every ``run.json`` starts with. The elapsed time covers every invocation of a
+    resumed run (the last one's own in ``elapsed_seconds_last``), added to the previous
+    ``run.json`` in ``directory``."""
+    last = round(time.perf_counter() - started, 3)
+    before, invocations = 0.0, 0
+    try:
+        previous = json.loads((directory / "run.json").read_text())
+        before = float(previous.get("elapsed_seconds", 0.0))
+        invocations = int(previous.get("invocations", 1))
+    except (OSError, ValueError, TypeError, AttributeError):
+        pass  # no earlier invocation (or an unreadable record of it)
     return {
         "mjsuff_version": __version__,
         "python": platform.python_version(),
@@ -186,7 +196,9 @@ def _run_info(
         "backend": backend,
         "recorded": recorded,
         "interrupted": interrupted,
-        "elapsed_seconds": round(time.perf_counter() - started, 3),
+        "elapsed_seconds": round(before + last, 3),
+        "elapsed_seconds_last": last,
+        "invocations": invocations + 1,
     }
 
 
@@ -224,7 +236,7 @@ def finalize_sweep(
     write_json(
         directory / "run.json",
         {
-            **_run_info(scenario, backend, recorded, started, interrupted),
+            **_run_info(directory, scenario, backend, recorded, started, interrupted),
             "cells": len(results),
             "planned_replicates": scenario.replicates * len(results),
             "completed_replicates": completed,

@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import itertools
 import json
+import math
 import re
 import tomllib
 from dataclasses import dataclass
@@ -17,7 +18,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import tomli_w
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from pydantic_core import ErrorDetails
 
 from mjsuff.bounds.var_bound import QuantileMethod, least_effective_size
@@ -66,13 +67,36 @@ class RuleSettings(_Strict):
     validation_intervals: list[Interval] = [3, 4, 5, 6, 7]
     validation_min_held_out: int = Field(3, ge=1, description="held-out demos before it may stop")
 
+    @model_validator(mode="after")
+    def _no_duplicates(self) -> RuleSettings:
+        # A rule parameter given twice would run twice and count twice in every summary and test.
+        for key in ("nevd_thresholds", "piob_thresholds", "patience", "validation_intervals"):
+            values = getattr(self, key)
+            twice = sorted({v for v in values if values.count(v) > 1})
+            if twice:
+                raise ValueError(f"rules.{key}: {', '.join(f'{v:g}' for v in twice)} given more than once")
+        return self
+
+
+#: A name that can be a file name anywhere: no separators, no leading dot (so never ``..``).
+SAFE_NAME = r"^[A-Za-z0-9_][A-Za-z0-9._-]*$"
+#: The most replicates a run (all its sweep cells) may plan: each is a file of its own, and at
+#: a second apiece 100,000 replicates are a day of a large machine's cores.
+MAX_REPLICATES = 100_000
+
 
 class Scenario(_Strict):
     """A fully resolved experiment: what to run, how many times, and with which settings."""
 
-    name: str = Field(min_length=1)
+    name: str = Field(
+        min_length=1,
+        max_length=100,
+        description="the run's name: letters, digits, '.', '_', '-' (it names runs/NAME-TIMESTAMP)",
+    )
     seed: int = Field(0, ge=0)
-    replicates: int = Field(20, ge=1)
+    replicates: int = Field(
+        20, ge=1, le=MAX_REPLICATES, description=f"replicates per sweep cell (at most {MAX_REPLICATES:,})"
+    )
     domain: DomainSettings
     demos: DemoSettings = DemoSettings()
     posterior: SamplerConfig = SamplerConfig()
@@ -84,6 +108,16 @@ class Scenario(_Strict):
         "is a cell run with the same seeds (see ``cells``)",
     )
 
+    @field_validator("name")
+    @classmethod
+    def _safe_name(cls, name: str) -> str:
+        if not re.fullmatch(SAFE_NAME, name):
+            raise ValueError(
+                "expected letters, digits, '.', '_' or '-', not starting with '.' "
+                "(the name becomes a file name: runs/NAME-TIMESTAMP)"
+            )
+        return name
+
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
         r = self.rules
@@ -93,6 +127,12 @@ class Scenario(_Strict):
             raise ValueError(
                 "rules.nevd_thresholds: the baselines are scored at the nEVD "
                 "thresholds, so at least one is needed"
+            )
+        cells = math.prod(len(v) for v in self.sweep.values()) if self.sweep else 1
+        if cells * self.replicates > MAX_REPLICATES:
+            raise ValueError(
+                f"replicates: {cells} sweep cells × {self.replicates:,} replicates plan more than "
+                f"{MAX_REPLICATES:,} replicates"
             )
         a, d, q = self.sufficiency.alpha, self.sufficiency.delta, self.sufficiency.quantile_method
         n = self.posterior.num_samples
@@ -373,15 +413,18 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
     (``resolve_scenario``)."""
     path = resolve_scenario(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a leading BOM is fine
     except FileNotFoundError:
         raise ScenarioError(f"{path}: file not found") from None
     except IsADirectoryError:
         raise ScenarioError(f"{path}: is a directory, expected a TOML scenario file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
-    except UnicodeDecodeError:
-        raise ScenarioError(f"{path}: not a text file") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(
+            f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start}); "
+            "save it as UTF-8"
+        ) from None
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     data = apply_overrides(data, overrides or [])

@@ -81,6 +81,8 @@ def _steps(directory: Path) -> pd.DataFrame:
     }
     if missing := needed - set(steps.columns):
         raise ReportError(f"{path}: missing columns {sorted(missing)}")
+    if steps.empty:
+        raise ReportError(f"{path}: no rows (no replicate has finished; mjsuff run --resume continues a run)")
     return steps
 
 
