@@ -99,6 +99,36 @@ def test_wrong_shapes_missing_arrays_and_nan_are_named(saved, tmp_path):
         load_demo_set(rewrite(path, tmp_path / "meta.npz", meta=np.array("{oops")))
 
 
+@pytest.mark.parametrize(
+    ("array", "change", "expected"),
+    [
+        (
+            "start_index",
+            lambda a: np.array([10**12, 0]),
+            r"array 'start_index': expected pool starts 0\.\.\d+, got 10+",
+        ),
+        (
+            "start_index",
+            lambda a: np.array([-1, 0]),
+            r"array 'start_index': expected pool starts 0\.\.\d+, got -1",
+        ),
+        ("start_qpos", lambda a: a + 0.1, r"array 'start_qpos': not the postures of the pool starts"),
+        ("controls", lambda a: a * 100.0, r"array 'controls': outside the actuators' ranges"),
+        ("tracking_error", lambda a: -a - 1e-3, r"array 'tracking_error': negative values"),
+    ],
+)
+def test_values_outside_the_scene_are_named_with_file_and_array(
+    saved, scenario, tmp_path, array, change, expected
+):
+    """Issue #19, item 2: a start index of 10**12 allocated 7 TiB; -1 failed in numpy."""
+    from mjsuff.experiment.recorded_demos import load_recorded_demos
+
+    demo_set, path = saved
+    bad = rewrite(path, tmp_path / "range.npz", **{array: change(demo_set.arrays[array])})
+    with pytest.raises(DemoFileError, match=r"range\.npz: " + expected):
+        load_recorded_demos([bad], scenario)
+
+
 def test_other_scene_or_instance_is_refused(saved, scenario):
     _, path = saved
     other = load_scenario(ROOT / "scenarios" / "lava_reacher.toml", [*OVERRIDES, "seed=5"])

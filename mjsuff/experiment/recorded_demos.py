@@ -17,6 +17,7 @@ from mjsuff.domain import Demo
 from mjsuff.experiment.demo_generation import instance_meta, scene_instance
 from mjsuff.experiment.scenario import Scenario
 from mjsuff.experts.demo_set import DemoFileError, DemoSet, load_demo_set
+from mjsuff.scenes.scene import Scene
 
 #: The arrays a served ``Demo`` carries in ``data`` (as the live expert's do).
 DEMO_ARRAYS = ("features", "qpos", "qvel", "controls", "intended", "executed")
@@ -110,6 +111,7 @@ def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int
                     "settings)"
                 )
         pool = len(scene.pool_starts)
+        _check_ranges(path, demo_set, scene)
         d = scenario.demos
         schedule = DemoSchedule.of_replicate(scenario.seed, replicate, pool, d.max_demos, d.noise_fraction)
         needed = np.bincount(schedule.passive_starts(), minlength=pool)
@@ -124,3 +126,23 @@ def load_recorded_demos(paths: list[str | Path], scenario: Scenario) -> dict[int
             )
         served[replicate] = RecordedDemos(demo_set, path)
     return served
+
+
+def _check_ranges(path: str | Path, demo_set: DemoSet, scene: Scene) -> None:
+    """Every array's values fit the scene the file names: pool start indices, their postures,
+    controls within the actuators' ranges, tracking errors ≥ 0 (shapes and finiteness are
+    ``load_demo_set``'s)."""
+    a, pool = demo_set.arrays, len(scene.pool_starts)
+    starts = a["start_index"]
+    outside = starts[(starts < 0) | (starts >= pool)]
+    if outside.size:
+        raise DemoFileError(
+            f"{path}: array 'start_index': expected pool starts 0..{pool - 1}, got {int(outside[0])}"
+        )
+    if not np.allclose(a["start_qpos"], scene.pool_starts[starts], atol=1e-9):
+        raise DemoFileError(f"{path}: array 'start_qpos': not the postures of the pool starts it names")
+    low, high = scene.model.actuator_ctrlrange.T
+    if ((a["controls"] < low - 1e-9) | (a["controls"] > high + 1e-9)).any():
+        raise DemoFileError(f"{path}: array 'controls': outside the actuators' ranges {low} .. {high}")
+    if (a["tracking_error"] < 0).any():
+        raise DemoFileError(f"{path}: array 'tracking_error': negative values")
