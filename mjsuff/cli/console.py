@@ -13,6 +13,8 @@ EXIT_USAGE = 2
 #: The Ray cluster at --address cannot be reached or refused the connection (sysexits.h's
 #: EX_UNAVAILABLE): not bad input; nothing is written.
 EXIT_CLUSTER = 69
+#: Results could not be written mid-run (sysexits.h's EX_IOERR): ``RunWriteError``.
+EXIT_WRITE = 74
 EXIT_INTERRUPTED = 130
 
 #: Width of stdout off a terminal: wide enough that no table is cut and no line is wrapped.

@@ -14,6 +14,7 @@ from mjsuff.cli.console import (
     EXIT_CLUSTER,
     EXIT_INTERRUPTED,
     EXIT_USAGE,
+    EXIT_WRITE,
     fmt,
     note,
     out,
@@ -57,8 +58,9 @@ def add_parser(commands: Any) -> None:
         description="Run a scenario file (or a shipped scenario by name: mjsuff scenarios lists "
         "them) and write steps.parquet, summary.json and config.toml to the output directory.",
         epilog=f"exit status: 0 done, {EXIT_USAGE} bad input (nothing written), {EXIT_CLUSTER} the "
-        f"Ray cluster at --address cannot be used (nothing written), {EXIT_INTERRUPTED} "
-        "interrupted (finished replicates kept; --resume continues)",
+        f"Ray cluster at --address cannot be used (nothing written), {EXIT_WRITE} results could not "
+        f"be written mid-run (disk full, permissions: finished replicates kept; --resume continues "
+        f"once fixed), {EXIT_INTERRUPTED} interrupted (finished replicates kept; --resume continues)",
     )
     run.add_argument("--out", help="output directory (default: runs/NAME-TIMESTAMP)")
     run.add_argument("--replicates", type=int, help="override the number of replicates")

@@ -10,7 +10,9 @@ one finishes, in whatever order they finish; the runner writes each to disk at o
 from __future__ import annotations
 
 import abc
+import errno
 import tempfile
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -92,7 +94,42 @@ def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> Replica
                 )
         finally:
             recorder.close()
+        last = max((int(row["step"]) for row in rows), default=0)
+        _check_recorded(path, task.replicate, last)
         return ReplicateResult(rows, path.read_bytes())
+
+
+def _check_recorded(path: Path, replicate: int, last_step: int) -> None:
+    """The replicate's recording part reaches its last demo step. Rerun writes in the background and
+    only logs a failure (a full disk where the worker records): a part cut short would be merged
+    and the replicate's steps lost from ``recording.rrd`` for good.
+
+    Raises:
+        OSError: The part cannot be read, or stops before ``last_step``.
+    """
+    from mjsuff.recording.reader import Recording
+
+    try:
+        with warnings.catch_warnings():  # the reader warns as well as raising
+            warnings.simplefilter("ignore")
+            chunks = Recording(path).chunks
+    except Exception as exc:  # the reader raises several types for a damaged file
+        message = f"the recording of replicate {replicate} cannot be read back ({exc})"
+        raise OSError(errno.EIO, message, str(path)) from None
+    root = f"/r{replicate}/"
+    steps = [
+        step
+        for c in chunks
+        if c.entity_path.startswith(root) and "demo" in c.timeline_names
+        for step in c.to_record_batch().column("demo").to_pylist()
+    ]
+    if max(steps, default=0) < last_step:
+        raise OSError(
+            errno.EIO,
+            f"Rerun could not write the recording of replicate {replicate} (it stops before demo step "
+            f"{last_step}; is the disk of the temporary directory full?)",
+            str(path),
+        )
 
 
 class Backend(abc.ABC):

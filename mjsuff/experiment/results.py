@@ -56,7 +56,14 @@ def prepare_output(directory: Path, overwrite: bool, resume: bool = False) -> No
     if overwrite and not resume:
         for old in (directory / "replicates").glob("replicate-*.parquet"):
             old.unlink()
-        for name in ("steps.parquet", "summary.json", "run.json", "sweep.json", "recording.rrd"):
+        for name in (
+            "steps.parquet",
+            "summary.json",
+            "run.json",
+            "sweep.json",
+            "recording.rrd",
+            "recording.json",
+        ):
             (directory / name).unlink(missing_ok=True)
         for name in ("cells", "recordings"):
             if (directory / name).is_dir():

@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from mjsuff.atomic import atomic_write_bytes, atomic_write_text
+from mjsuff.errors import MjsuffError
 from mjsuff.experiment.backend import Backend, ReplicateResult, ReplicateTask, SerialBackend
 from mjsuff.experiment.replicate import DemoSource
 from mjsuff.experiment.results import (
@@ -29,11 +30,14 @@ from mjsuff.experiment.results import (
     write_replicate,
 )
 from mjsuff.experiment.run_summary import (
+    RECORDING,
     RECORDINGS,
     CellResult,
     RunResult,
     finalize,
     finalize_sweep,
+    note_recorded,
+    recorded_replicates,
 )
 from mjsuff.experiment.scenario import Scenario, SweepCell, flat_keys
 
@@ -107,7 +111,8 @@ def _plan_tasks(
     demo_sources: Mapping[int, DemoSource] | None,
 ) -> tuple[list[ReplicateTask], int]:
     """Make every cell's directories and list the replicates still to run, with how many are
-    finished already (a resumed run keeps those)."""
+    finished already (a resumed run keeps those; a finished replicate whose recording part was
+    lost to a fault runs again, to the same rows, so that the recording covers it)."""
     sweep = bool(scenario.sweep)
     tasks: list[ReplicateTask] = []
     finished = 0
@@ -116,15 +121,28 @@ def _plan_tasks(
         (cell_dir / "replicates").mkdir(parents=True, exist_ok=True)
         if sweep:
             atomic_write_text(cell_dir / "config.toml", cell.scenario.to_toml())
-        if record:
-            (cell_dir / RECORDINGS).mkdir(exist_ok=True)
+        recorded = _recorded_so_far(cell_dir) if record else None
         for replicate in range(scenario.replicates):
-            if replicate_path(cell_dir, replicate).exists():
+            if replicate_path(cell_dir, replicate).exists() and (recorded is None or replicate in recorded):
                 finished += 1
                 continue
             source = (demo_sources or {}).get(replicate)
             tasks.append(ReplicateTask((cell.index, replicate), cell.scenario, replicate, source, record))
     return tasks, finished
+
+
+def _recorded_so_far(cell_dir: Path) -> set[int] | None:
+    """The replicates a recorded cell has in its recording or among its parts; None for a run
+    from before ``RECORDED`` was kept (every finished replicate then counts as recorded)."""
+    (cell_dir / RECORDINGS).mkdir(exist_ok=True)
+    recorded = recorded_replicates(cell_dir)
+    if recorded is None and not (cell_dir / RECORDING).exists():
+        note_recorded(cell_dir, set())  # a new run: its recording is tracked from the start
+        recorded = set()
+    if recorded is None:
+        return None
+    parts = (cell_dir / RECORDINGS).glob("replicate-*.rrd")
+    return recorded | {int(p.stem.removeprefix("replicate-")) for p in parts}
 
 
 def _write_sweep_json(directory: Path, scenario: Scenario, cells: list[SweepCell]) -> None:
@@ -206,11 +224,35 @@ def run_scenario(
             finished += 1
             report()
         interrupted = False
+    except MjsuffError:
+        raise
+    except OSError as exc:  # a full disk, a directory made read-only, ...
+        raise RunWriteError.of(exc, directory, finished) from exc
     finally:
         # Ctrl-C, or anything failing mid-run (e.g. a saved demo set without the demo asked
-        # for): the finished replicates are summarized before the error goes up.
-        total = _summarize(directory, scenario, cells, started, interrupted, backend.describe(), record)
+        # for): the finished replicates are summarized before the error goes up. When the
+        # summary cannot be written either, the error already going up is the one to report.
+        try:
+            total = _summarize(directory, scenario, cells, started, interrupted, backend.describe(), record)
+        except OSError as exc:
+            if not interrupted:
+                raise RunWriteError.of(exc, directory, finished) from exc
     return total
+
+
+class RunWriteError(MjsuffError, OSError):
+    """Results could not be written mid-run (disk full, permissions); the finished replicates are
+    on disk and ``--resume`` continues once the fault is fixed."""
+
+    exit_code = 74  # sysexits.h's EX_IOERR (mjsuff.cli.console.EXIT_WRITE)
+
+    @classmethod
+    def of(cls, exc: OSError, directory: Path, finished: int) -> RunWriteError:
+        where = exc.filename or directory
+        return cls(
+            f"{where}: cannot write ({exc.strerror or exc}); {finished} finished replicate(s) are kept "
+            f"in {directory}: fix that, then run the same command with --resume (--out {directory})"
+        )
 
 
 def _save_replicate(cell_dir: Path, task: ReplicateTask, result: ReplicateResult) -> None:
