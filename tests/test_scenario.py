@@ -162,6 +162,11 @@ def test_overrides_are_parsed_as_toml_values(tmp_path):
             False,
         ),
         (["domain.params.rows=40"], "domain.params.rows: input should be less than or equal to 12", True),
+        (  # issue #19: a posterior that never converges keeps every draw (88 GB here)
+            ["posterior.chains=1000", "posterior.max_steps=1000000", "posterior.num_samples=1000"],
+            "posterior.max_steps: chains × max_steps = 1,000,000,000 exceeds 10,000,000",
+            False,
+        ),
     ],
 )
 def test_bad_overrides_are_clear(tmp_path, sets, expected, attributed):

@@ -75,6 +75,11 @@ FIRST_WINDOW = 150
 BLOCK_ROWS = 4096
 
 
+#: Most steps over all chains of one posterior: a posterior that never converges keeps every draw
+#: (k + 1 floats each: 0.9 GB at k = 10), which no machine should be asked for more of.
+MAX_CHAIN_STEPS = 10_000_000
+
+
 class SamplerConfig(BaseModel):
     """MCMC settings (paper defaults: 500 samples, start step 0.5, 40% target acceptance) and the
     convergence targets (module docstring)."""
@@ -120,6 +125,12 @@ class SamplerConfig(BaseModel):
             raise ValueError(
                 f"max_steps: at least burn_in + num_samples / chains × thin = {least} "
                 f"steps per chain are needed, got {self.max_steps}"
+            )
+        if self.chains * self.max_steps > MAX_CHAIN_STEPS:
+            raise ValueError(
+                f"max_steps: chains × max_steps = {self.chains * self.max_steps:,} exceeds "
+                f"{MAX_CHAIN_STEPS:,} (the draws of a posterior that never converges are kept: "
+                f"{self.chains * self.max_steps * 8 * 11 / 1e9:.0f} GB at k = 10)"
             )
         return self
 
