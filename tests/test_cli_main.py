@@ -54,3 +54,13 @@ def test_any_other_exception_is_a_bug_and_keeps_its_traceback(monkeypatch):
     monkeypatch.setattr(hoeffding_command, "abbeel_ng_demos", fail)
     with pytest.raises(ValueError, match="a bug"):
         main(["hoeffding"])
+
+
+def test_out_of_memory_is_one_line_naming_the_command(monkeypatch, capsys):
+    def exhausted(*args):
+        raise MemoryError
+
+    monkeypatch.setattr(hoeffding_command, "abbeel_ng_demos", exhausted)
+    assert main(["hoeffding"]) == 71
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: mjsuff hoeffding: out of memory") and "\n" not in err

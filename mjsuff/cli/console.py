@@ -15,6 +15,8 @@ EXIT_USAGE = 2
 EXIT_CLUSTER = 69
 #: Results could not be written mid-run (sysexits.h's EX_IOERR): ``RunWriteError``.
 EXIT_WRITE = 74
+#: Python ran out of memory (sysexits.h's EX_OSERR).
+EXIT_MEMORY = 71
 EXIT_INTERRUPTED = 130
 
 #: Width of stdout off a terminal: wide enough that no table is cut and no line is wrapped.

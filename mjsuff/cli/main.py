@@ -12,7 +12,7 @@ import mjsuff.cli.run as run
 import mjsuff.cli.scenarios as scenarios
 import mjsuff.cli.view as view
 from mjsuff import __version__
-from mjsuff.cli.console import error
+from mjsuff.cli.console import EXIT_MEMORY, error
 from mjsuff.errors import MjsuffError
 
 #: The commands in the order ``mjsuff --help`` lists them.
@@ -40,3 +40,9 @@ def main(argv: list[str] | None = None) -> int:
     except MjsuffError as exc:
         error(str(exc))
         return exc.exit_code
+    except MemoryError:
+        error(
+            f"mjsuff {args.command}: out of memory. A run keeps its finished replicates: free memory or "
+            "lower the sizes (--workers, posterior.num_samples, posterior.chains), then --resume"
+        )
+        return EXIT_MEMORY
