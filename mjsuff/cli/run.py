@@ -61,7 +61,8 @@ def add_parser(commands: Any) -> None:
         epilog=f"exit status: 0 done, {EXIT_USAGE} bad input (nothing written), {EXIT_CLUSTER} the "
         f"Ray cluster at --address cannot be used (nothing written), {EXIT_WRITE} results could not "
         f"be written mid-run (disk full, permissions: finished replicates kept; --resume continues "
-        f"once fixed), {EXIT_MEMORY} out of memory (finished replicates kept), {EXIT_INTERRUPTED} interrupted (finished replicates kept; --resume continues)",
+        f"once fixed), {EXIT_MEMORY} out of memory (finished replicates kept), {EXIT_INTERRUPTED} "
+        "interrupted (finished replicates kept; --resume continues)",
     )
     run.add_argument("--out", help="output directory (default: runs/NAME-TIMESTAMP)")
     run.add_argument("--replicates", type=int, help="override the number of replicates")
