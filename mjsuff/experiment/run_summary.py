@@ -25,8 +25,6 @@ from mjsuff.experiment.step_row import SIMULATION_COUNTERS
 
 #: A cell's merged Rerun recording, in its output directory.
 RECORDING = "recording.rrd"
-
-
 #: Per-replicate recordings, before they are merged into ``RECORDING``.
 RECORDINGS = "recordings"
 #: The replicates merged into ``RECORDING`` so far (a resume records again any finished replicate
