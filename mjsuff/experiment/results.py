@@ -62,7 +62,6 @@ def prepare_output(directory: Path, overwrite: bool, resume: bool = False) -> No
             "run.json",
             "sweep.json",
             "recording.rrd",
-            "recording.json",
         ):
             (directory / name).unlink(missing_ok=True)
         for name in ("cells", "recordings"):

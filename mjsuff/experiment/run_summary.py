@@ -27,9 +27,6 @@ from mjsuff.experiment.step_row import SIMULATION_COUNTERS
 RECORDING = "recording.rrd"
 #: Per-replicate recordings, before they are merged into ``RECORDING``.
 RECORDINGS = "recordings"
-#: The replicates merged into ``RECORDING`` so far (a resume records again any finished replicate
-#: that is neither there nor among the parts: a part lost to a fault mid-run).
-RECORDED = "recording.json"
 
 
 @dataclass(frozen=True)
@@ -100,10 +97,8 @@ def merge_recordings(directory: Path) -> str | None:
     target = directory / RECORDING
     if not parts:
         return None
-    merged = {int(part.stem.removeprefix("replicate-")) for part in parts}
     if not target.exists() and len(parts) == 1:
         parts[0].replace(target)
-        note_recorded(directory, merged)
         return None
     inputs = ([target] if target.exists() else []) + parts
     tmp = directory / f".{RECORDING}.tmp"
@@ -120,27 +115,9 @@ def merge_recordings(directory: Path) -> str | None:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
         return f"rerun rrd merge failed ({last}); the parts are kept in {parts_dir}"
     tmp.replace(target)
-    note_recorded(directory, merged)
     for part in parts:
         part.unlink()
     return None
-
-
-def recorded_replicates(directory: Path) -> set[int] | None:
-    """The replicates merged into ``directory``'s ``recording.rrd`` (``RECORDED``), or None for a
-    run from before that list was kept."""
-    try:
-        return set(json.loads((directory / RECORDED).read_text())["replicates"])
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError, KeyError, TypeError):
-        return set()  # unreadable: every replicate without a part is recorded again
-
-
-def note_recorded(directory: Path, replicates: set[int]) -> None:
-    """Add ``replicates`` to the list of those merged into ``recording.rrd``."""
-    merged = (recorded_replicates(directory) or set()) | replicates
-    write_json(directory / RECORDED, {"replicates": sorted(merged)})
 
 
 def _drop_empty(directory: Path) -> None:

@@ -30,14 +30,11 @@ from mjsuff.experiment.results import (
     write_replicate,
 )
 from mjsuff.experiment.run_summary import (
-    RECORDING,
     RECORDINGS,
     CellResult,
     RunResult,
     finalize,
     finalize_sweep,
-    note_recorded,
-    recorded_replicates,
 )
 from mjsuff.experiment.scenario import Scenario, SweepCell, flat_keys
 
@@ -111,8 +108,7 @@ def _plan_tasks(
     demo_sources: Mapping[int, DemoSource] | None,
 ) -> tuple[list[ReplicateTask], int]:
     """Make every cell's directories and list the replicates still to run, with how many are
-    finished already (a resumed run keeps those; a finished replicate whose recording part was
-    lost to a fault runs again, to the same rows, so that the recording covers it)."""
+    finished already (a resumed run keeps those)."""
     sweep = bool(scenario.sweep)
     tasks: list[ReplicateTask] = []
     finished = 0
@@ -121,28 +117,15 @@ def _plan_tasks(
         (cell_dir / "replicates").mkdir(parents=True, exist_ok=True)
         if sweep:
             atomic_write_text(cell_dir / "config.toml", cell.scenario.to_toml())
-        recorded = _recorded_so_far(cell_dir) if record else None
+        if record:
+            (cell_dir / RECORDINGS).mkdir(exist_ok=True)
         for replicate in range(scenario.replicates):
-            if replicate_path(cell_dir, replicate).exists() and (recorded is None or replicate in recorded):
+            if replicate_path(cell_dir, replicate).exists():
                 finished += 1
                 continue
             source = (demo_sources or {}).get(replicate)
             tasks.append(ReplicateTask((cell.index, replicate), cell.scenario, replicate, source, record))
     return tasks, finished
-
-
-def _recorded_so_far(cell_dir: Path) -> set[int] | None:
-    """The replicates a recorded cell has in its recording or among its parts; None for a run
-    from before ``RECORDED`` was kept (every finished replicate then counts as recorded)."""
-    (cell_dir / RECORDINGS).mkdir(exist_ok=True)
-    recorded = recorded_replicates(cell_dir)
-    if recorded is None and not (cell_dir / RECORDING).exists():
-        note_recorded(cell_dir, set())  # a new run: its recording is tracked from the start
-        recorded = set()
-    if recorded is None:
-        return None
-    parts = (cell_dir / RECORDINGS).glob("replicate-*.rrd")
-    return recorded | {int(p.stem.removeprefix("replicate-")) for p in parts}
 
 
 def _write_sweep_json(directory: Path, scenario: Scenario, cells: list[SweepCell]) -> None:
