@@ -402,3 +402,19 @@ def test_run_summary_is_whole_in_a_log(tmp_path):
     assert table_rows(proc.stdout) == expected
     # Nor is a line of text wrapped: the results line names the run directory whole.
     assert f"mjsuff report {tmp_path / 'r'} for figures" in proc.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        (["--replicates", "0"], "(--replicates)"),
+        (["--seed", "-1"], "(--seed)"),
+        (["--set", "replicates=0"], "(--set replicates)"),
+        (["--set", "replicates=0", "--replicates", "0"], "(--replicates)"),  # the option applied last
+    ],
+)
+def test_a_bad_value_names_the_option_that_gave_it(tmp_path, capsys, args, named):
+    assert main(["run", GRIDWORLD, "--out", str(tmp_path / "r"), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"gridworld.toml {named}: " in err, err
+    assert not (tmp_path / "r").exists()

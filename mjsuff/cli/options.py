@@ -36,9 +36,10 @@ def load(args: argparse.Namespace) -> Scenario:
     Raises:
         ScenarioError: the file, a key or an override cannot be used (the message names it).
     """
-    overrides = list(args.set or [])
-    if args.seed is not None:
-        overrides.append(f"seed={args.seed}")
-    if getattr(args, "replicates", None) is not None:
-        overrides.append(f"replicates={args.replicates}")
-    return load_scenario(args.scenario, overrides)
+    overrides, given_as = list(args.set or []), {}
+    for option in ("seed", "replicates"):
+        if getattr(args, option, None) is not None:
+            text = f"{option}={getattr(args, option)}"
+            overrides.append(text)
+            given_as[text] = f"--{option}"
+    return load_scenario(args.scenario, overrides, given_as)

@@ -13,6 +13,7 @@ import json
 import math
 import re
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -296,12 +297,12 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
     return data
 
 
-def _origin(source: str, error: ErrorDetails, prefix: tuple[Any, ...], overridden: set[str]) -> str:
-    """``source``, or ``source (--set KEY)`` when the offending key came from an override."""
+def _origin(source: str, error: ErrorDetails, prefix: tuple[Any, ...], overridden: Mapping[str, str]) -> str:
+    """``source``, or ``source (OPTION)`` when the offending key came from an override."""
     dotted = _error_key(error, prefix)
     for key in sorted(overridden, key=len, reverse=True):
         if dotted == key or dotted.startswith(key + "."):
-            return f"{source} (--set {key})"
+            return f"{source} ({overridden[key]})"
     return source
 
 
@@ -325,13 +326,16 @@ def _moved_key(data: dict[str, Any]) -> str | None:
     return None
 
 
-def scenario_from_dict(data: dict[str, Any], source: str, overridden: set[str] | None = None) -> Scenario:
-    """Validate raw scenario data; ``source`` (and any ``overridden`` key) is named in errors."""
-    overridden = overridden or set()
+def scenario_from_dict(
+    data: dict[str, Any], source: str, overridden: Mapping[str, str] | None = None
+) -> Scenario:
+    """Validate raw scenario data; ``source`` (and the option that set an ``overridden`` key,
+    ``{dotted key: option}``) is named in errors."""
+    overridden = overridden or {}
     moved = _moved_key(data)
     if moved is not None:
         given = [k for k in sorted(overridden) if k == moved or k.startswith(moved + ".")]
-        where = f"{source} (--set {given[0]})" if given else source
+        where = f"{source} ({overridden[given[0]]})" if given else source
         raise ScenarioError(
             f"{where}: {moved}: a scene setting, now {MOVED_KEYS[moved]} (the scene's own parameters)"
         )
@@ -408,9 +412,17 @@ def resolve_scenario(path: str | Path) -> Path:
     )
 
 
-def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scenario:
+def load_scenario(
+    path: str | Path, overrides: list[str] | None = None, given_as: Mapping[str, str] | None = None
+) -> Scenario:
     """Read, override and validate a scenario file, or the shipped scenario of a bare name
-    (``resolve_scenario``)."""
+    (``resolve_scenario``).
+
+    Args:
+        overrides: ``KEY=VALUE`` strings (``--set``), applied in order.
+        given_as: The option that gave an override, for errors (``{"seed=3": "--seed"}``);
+            others are named ``--set KEY``.
+    """
     path = resolve_scenario(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a leading BOM is fine
@@ -428,7 +440,10 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     data = apply_overrides(data, overrides or [])
-    overridden = {".".join(parse_override(o)[0]) for o in overrides or []}
+    overridden = {}
+    for text in overrides or []:
+        key = ".".join(parse_override(text)[0])
+        overridden[key] = (given_as or {}).get(text, f"--set {key}")
     scenario = scenario_from_dict(data, str(path), overridden)
     scenario.cells(str(path))  # every sweep cell is valid before any work starts
     return scenario
