@@ -9,7 +9,6 @@ from mjsuff.experiment.scenario import (
     ScenarioError,
     load_scenario,
     resolve_scenario,
-    shipped_scenarios,
 )
 
 SCENARIOS = sorted(Path(__file__).parent.parent.joinpath("scenarios").glob("*.toml"))
@@ -179,18 +178,6 @@ def test_bad_overrides_are_clear(tmp_path, sets, expected, attributed):
     # Field errors also name the override they came from (cross-field checks name their key).
     if attributed:
         assert f"(--set {sets[0].split('=')[0]})" in message
-
-
-def test_shipped_scenarios_are_the_scenario_files():
-    shipped = shipped_scenarios()
-    assert [s.path.resolve() for s in shipped] == [p.resolve() for p in SCENARIOS]
-    for s in shipped:
-        assert s.name == s.path.stem == load_scenario(s.path).name
-        assert s.domain == load_scenario(s.path).domain.name
-        assert s.description.endswith(".") and "\n" not in s.description
-    # The first sentence of the leading comment, even when it runs over two comment lines.
-    sweep = next(s for s in shipped if s.name == "gridworld_sweep")
-    assert sweep.description.endswith("a growing share of poor demos, passive and active.")
 
 
 def test_bare_names_resolve_to_shipped_scenarios_unless_a_file_has_that_name(tmp_path, monkeypatch):

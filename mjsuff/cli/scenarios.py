@@ -9,7 +9,7 @@ from typing import Any
 from rich.table import Table
 
 from mjsuff.cli.console import out, say
-from mjsuff.experiment.scenario import shipped_scenarios
+from mjsuff.experiment.shipped_scenarios import shipped_scenarios
 
 
 def add_parser(commands: Any) -> None:

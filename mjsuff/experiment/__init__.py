@@ -1,6 +1,7 @@
 """The experiment: scenario files, the loop of one replicate, and the run of many.
 
-* ``scenario`` — TOML scenario files, validated into a typed ``Scenario``.
+* ``scenario`` — TOML scenario files, validated into a typed ``Scenario``; ``shipped_scenarios``,
+  the ones shipped with mjsuff.
 * ``replicate`` — one replicate of the loop (paper Alg. 1): demos, posterior, bounds, rules.
 * ``selection`` — active selection of the next demo's start (paper Eq. 13).
 * ``calibration`` — fitting the likelihood's β to a scenario's demonstrator.

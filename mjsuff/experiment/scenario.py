@@ -25,7 +25,7 @@ from pydantic_core import ErrorDetails
 from mjsuff.bounds.var_bound import QuantileMethod, least_effective_size
 from mjsuff.domains import REGISTRY, UnknownDomainError, get_domain
 from mjsuff.errors import MjsuffError
-from mjsuff.package_data import data_dir
+from mjsuff.experiment.shipped_scenarios import shipped_scenario_files
 from mjsuff.posterior.sampler import SamplerConfig
 
 
@@ -358,43 +358,6 @@ def scenario_from_dict(
     return scenario
 
 
-@dataclass(frozen=True)
-class ShippedScenario:
-    """A scenario file shipped with mjsuff (the repository's ``scenarios/``, installed as
-    ``mjsuff.scenarios``): ``mjsuff run NAME`` runs it."""
-
-    name: str
-    domain: str
-    description: str
-    path: Path
-
-
-def _shipped_files() -> dict[str, Path]:
-    return {p.stem: p for p in sorted(data_dir("mjsuff.scenarios").glob("*.toml"))}
-
-
-def _description(text: str) -> str:
-    """The first sentence of a scenario file's leading comment block ("" without one)."""
-    lines = []
-    for line in text.splitlines():
-        if not line.startswith("#"):
-            break
-        lines.append(line.lstrip("#").strip())
-    comment = " ".join(x for x in lines if x)
-    match = re.match(r"(.+?\.)(\s|$)", comment)
-    return match.group(1) if match else comment
-
-
-def shipped_scenarios() -> list[ShippedScenario]:
-    """The shipped scenarios, by name, with their domain and a one-line description."""
-    shipped = []
-    for name, path in _shipped_files().items():
-        text = path.read_text()
-        domain = tomllib.loads(text).get("domain", {}).get("name", "?")
-        shipped.append(ShippedScenario(name, str(domain), _description(text), path))
-    return shipped
-
-
 def resolve_scenario(path: str | Path) -> Path:
     """The scenario file ``path`` names: the file itself if there is one or ``path`` is not a bare
     name (it has a directory part or a ``.toml`` suffix), else the shipped scenario of that name;
@@ -402,7 +365,7 @@ def resolve_scenario(path: str | Path) -> Path:
     given = Path(path)
     if given.is_file() or len(given.parts) != 1 or given.suffix == ".toml":
         return given
-    shipped = _shipped_files()
+    shipped = shipped_scenario_files()
     if given.name in shipped:
         return shipped[given.name]
     if given.exists():
