@@ -15,7 +15,7 @@ the likelihood compares with its own perturbations is then (locally) what the li
 not beaten by them under ``w*``. Without it, the mink path family's systematic shortfall (a few
 knots of a fitted path) is beaten under ``w*`` by some perturbations in a direction shared by all of
 an instance's demos, and more demos make the posterior surer of a reward that is not ``w*``
-(README, issue #17, "Why the bound misses").
+(docs/issue-17-history.md, "Why the bound misses").
 """
 
 from __future__ import annotations

@@ -11,10 +11,10 @@ trajectories from ``s_j``; and the demo's own controls under smooth perturbation
 
 With ``"library"`` the likelihood is misspecified for a demonstrator restricted to a path family:
 the library's optima beat its demos under ``w*`` in a direction shared by an instance's demos, so
-more demos move the posterior away from ``w*`` (README, issue #17, "Why the bound misses"). The
-perturbations matter: against planner trajectories alone the likelihood would favour whatever
-directions the demo happens to beat the planner in most; against its own neighbours it favours
-the directions under which the demo is locally optimal.
+more demos move the posterior away from ``w*`` (docs/issue-17-history.md, "Why the bound
+misses"). The perturbations matter: against planner trajectories alone the likelihood would favour
+whatever directions the demo happens to beat the planner in most; against its own neighbours it
+favours the directions under which the demo is locally optimal.
 """
 
 from __future__ import annotations
