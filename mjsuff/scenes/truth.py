@@ -44,9 +44,10 @@ def true_start_values(
     planning: PlanningSettings,
     expert: Expert | None,
     rng: np.random.Generator,
+    cloud: int = TRUTH_CLOUD,
 ) -> np.ndarray:
     """``V*_{w*}(s)`` ``(S,)``: the best under ``w*`` of a copy of ``learner_library`` after
-    ``TRUTH_CLOUD`` rewards around ``w*`` are planned from every start with the planner's budget
+    ``cloud`` rewards around ``w*`` are planned from every start with the planner's budget
     (``planner``), then ``w*`` by three searches, each from the best found so far and with
     ``planning.truth_scale`` × its budget (the seed planner's wide one, the planner's CMA-ES with a
     broad step, the planner itself), the local quadratic model's proposals until they stop
@@ -59,8 +60,8 @@ def true_start_values(
     # First the learner's own kind of search, for rewards around w* (as its π_MAP plans for
     # posterior modes near w* are): each lands in some basin, and w*'s searches then start from
     # the best of them all.
-    cloud = normalize(true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal((TRUTH_CLOUD, k)))
-    problems, directions = np.repeat(starts, TRUTH_CLOUD), np.tile(cloud, (len(starts), 1))
+    near = normalize(true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal((cloud, k)))
+    problems, directions = np.repeat(starts, cloud), np.tile(near, (len(starts), 1))
     SamplingPlanner(scene, planner, library).plan(
         problems, directions, rng, warm_knots=library_warm(library, problems, directions)
     )

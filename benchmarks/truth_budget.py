@@ -1,0 +1,153 @@
+"""Benchmark: is ground truth's budget large enough (issue #17, item 3)?
+
+A replicate raises its truth, ``V*_{w*}(s)`` per evaluation start, to the best of everything it
+simulated under ``w*`` (the learner's plans, refinements, candidates, demos). If that happens
+often, the truth's own search is weaker than what the learner stumbles on, and its budget is too
+small. This runs replicates as ``mjsuff run`` does and, beside the scenario's truth, computes
+truths with other budgets at the same moment, from the same copy of the learner's library and
+with randomness of their own (``truth_scale`` × the planner's budget for ``w*``'s searches, and
+``cloud`` rewards planned around ``w*`` first). Nothing of them reaches the learner, so every
+variant faces the same replicate. When the replicate ends, each variant is compared with the best
+the replicate simulated, as the run's own truth is (the first variant is the scenario's own and
+must reproduce the rows' ``truth_raised_starts``).
+
+Printed per replicate and variant: the evaluation starts whose truth the replicate beat, the
+largest raise (in units of that start's ``V* − V_rand``), how far the variant's truth lies above
+the scenario's (mean over starts, same units), and the seconds it took.
+
+Use design seeds only (not a seed reported as evidence):
+
+    python benchmarks/truth_budget.py lander --seed 2 --replicates 4 --variants 4x16 16x64
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from mjsuff.experiment.replicate import run_replicate
+from mjsuff.experiment.scenario import load_scenario
+from mjsuff.scenes.truth import true_start_values
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def parse_variant(text: str) -> tuple[float, int]:
+    """``SCALExCLOUD`` (``4x16``): the truth's budget scale and its cloud's size."""
+    scale, cloud = text.lower().split("x")
+    return float(scale), int(cloud)
+
+
+class _Truths:
+    """Computes every variant's truth when the replicate begins (before its own truth)."""
+
+    def __init__(self, variants: list[tuple[float, int]], seed: int, replicate: int) -> None:
+        self.variants, self.seed, self.replicate = variants, seed, replicate
+
+    def begin(self, domain) -> None:
+        self.domain, self.values, self.seconds = domain, [], []
+        for i, (scale, cloud) in enumerate(self.variants):
+            t0 = time.perf_counter()
+            planning = domain.planning.model_copy(update={"truth_scale": scale})
+            rng = np.random.default_rng((self.seed, self.replicate, 1 + i))
+            self.values.append(
+                true_start_values(
+                    domain.scene,
+                    domain.library,
+                    domain.true_weights,
+                    domain.planner.config,
+                    planning,
+                    domain.expert,
+                    rng,
+                    cloud=cloud,
+                )
+            )
+            self.seconds.append(time.perf_counter() - t0)
+
+    def step(self, *args) -> None:
+        pass
+
+
+def run_one(
+    scene: str, seed: int, replicate: int, variants: list[tuple[float, int]], overrides: list[str]
+) -> dict:
+    scenario = load_scenario(ROOT / "scenarios" / f"{scene}.toml", [f"seed={seed}", *overrides])
+    truths = _Truths(variants, seed, replicate)
+    t0 = time.perf_counter()
+    with threadpool_limits(limits=1):
+        rows = run_replicate(scenario, replicate, observer=truths)
+    domain, w = truths.domain, truths.domain.true_weights
+    best = domain.best_simulated_start_values(w)
+    shipped = domain.true_optimal_start_values()
+    v_rand = domain.random_start_feature_expectations() @ w
+    out = []
+    for (scale, cloud), values, seconds in zip(variants, truths.values, truths.seconds, strict=True):
+        scale_ = np.maximum(values - v_rand, 1e-12)
+        gain = np.maximum(best - values, 0.0)
+        raised = gain > 1e-12 * (1 + np.abs(values))
+        out.append(
+            {
+                "variant": f"{scale:g}x{cloud}",
+                "raised_starts": int(raised.sum()),
+                "largest_raise": float(np.max(gain / scale_)),
+                "above_scenario": float(np.mean((values - shipped) / np.maximum(shipped - v_rand, 1e-12))),
+                "seconds": seconds,
+            }
+        )
+    return {
+        "replicate": replicate,
+        "rows_raised_starts": int(rows[-1]["truth_raised_starts"]),
+        "rows_raise": float(rows[-1]["truth_raise"]),
+        "seconds": time.perf_counter() - t0,
+        "variants": out,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scene", choices=["lava_reacher", "lander"])
+    parser.add_argument("--seed", type=int, required=True, help="a design seed")
+    parser.add_argument("--replicates", type=int, nargs="+", default=[0, 1, 2, 3])
+    parser.add_argument(
+        "--variants",
+        nargs="+",
+        default=["4x16", "16x64"],
+        help="SCALExCLOUD: truth_scale × planner budget for w*'s searches, rewards planned around w* "
+        "first; the first should be the scenario's (4x16)",
+    )
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    args = parser.parse_args()
+    variants = [parse_variant(v) for v in args.variants]
+    t0 = time.perf_counter()
+    jobs = [(args.scene, args.seed, r, variants, args.set) for r in args.replicates]
+    with ProcessPoolExecutor(args.workers) as pool:
+        results = list(pool.map(run_one, *zip(*jobs, strict=True)))
+    print(f"{args.scene}, seed {args.seed}, replicates {args.replicates} ({time.perf_counter() - t0:.0f} s)")
+    print(
+        "| replicate | rows: starts raised / largest | variant | starts raised | largest raise "
+        "| above the scenario's truth | truth s |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for r in results:
+        for v in r["variants"]:
+            print(
+                f"| {r['replicate']} | {r['rows_raised_starts']} / {r['rows_raise']:.4f} "
+                f"| {v['variant']} | {v['raised_starts']} | {v['largest_raise']:.4f} "
+                f"| {v['above_scenario']:+.4f} | {v['seconds']:.0f} |"
+            )
+    for i, name in enumerate(args.variants):
+        counts = [r["variants"][i]["raised_starts"] for r in results]
+        print(
+            f"{name}: truth beaten in {sum(c > 0 for c in counts)} of {len(results)} replicates, "
+            f"{sum(counts)} starts in all"
+        )
+
+
+if __name__ == "__main__":
+    main()
