@@ -8,8 +8,11 @@ truths with other budgets at the same moment, from the same copy of the learner'
 with randomness of their own (``truth_scale`` × the planner's budget for ``w*``'s searches, and
 ``cloud`` rewards planned around ``w*`` first). Nothing of them reaches the learner, so every
 variant faces the same replicate. When the replicate ends, each variant is compared with the best
-the replicate simulated, as the run's own truth is (the first variant is the scenario's own and
-must reproduce the rows' ``truth_raised_starts``).
+the replicate simulated, as the run's own truth is; the rows' own ``truth_raised_starts`` and
+``truth_raise`` (the scenario's truth, with its own randomness) are printed beside them. A variant
+at the scenario's budget (``4x16``) is an independent draw of the same search: how much of a raise
+is the search's luck. The variants simulate on the instance's simulator, so the rows' simulation
+counters include them (nothing else in the rows changes).
 
 Printed per replicate and variant: the evaluation starts whose truth the replicate beat, the
 largest raise (in units of that start's ``V* − V_rand``), how far the variant's truth lies above
@@ -23,6 +26,7 @@ Use design seeds only (not a seed reported as evidence):
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -30,6 +34,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from mjsuff.experiment.backend import SIM_THREADS_ENV
 from mjsuff.experiment.replicate import run_replicate
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.scenes.truth import true_start_values
@@ -118,7 +123,7 @@ def main() -> None:
         nargs="+",
         default=["4x16", "16x64"],
         help="SCALExCLOUD: truth_scale × planner budget for w*'s searches, rewards planned around w* "
-        "first; the first should be the scenario's (4x16)",
+        "first (the scenario's: 4x16)",
     )
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
@@ -126,7 +131,10 @@ def main() -> None:
     variants = [parse_variant(v) for v in args.variants]
     t0 = time.perf_counter()
     jobs = [(args.scene, args.seed, r, variants, args.set) for r in args.replicates]
-    with ProcessPoolExecutor(args.workers) as pool:
+    threads = str(max(1, (os.cpu_count() or 1) // args.workers))  # MuJoCo's rollout threads, shared
+    with ProcessPoolExecutor(
+        args.workers, initializer=os.environ.__setitem__, initargs=(SIM_THREADS_ENV, threads)
+    ) as pool:
         results = list(pool.map(run_one, *zip(*jobs, strict=True)))
     print(f"{args.scene}, seed {args.seed}, replicates {args.replicates} ({time.perf_counter() - t0:.0f} s)")
     print(

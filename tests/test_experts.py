@@ -195,4 +195,4 @@ def test_correction_makes_the_demo_locally_optimal_under_w_star():
         batch = perturb_controls(scene.spline, after.controls, np.random.default_rng(100 + s))
         _, features = scene.simulate_controls(start, batch)
         assert np.sum(features @ w > after.value) <= 2
-    assert improved >= 1  # the expert's path family is not locally optimal (README, issue #17)
+    assert improved >= 1  # the expert's path family is not locally optimal (docs/issue-17-history.md)

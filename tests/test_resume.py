@@ -122,3 +122,19 @@ def test_resume_needs_out_and_a_non_empty_out_needs_a_choice(tmp_path, capsys):
     (tmp_path / "x" / "file").write_text("")
     assert main(cli_args(tmp_path / "x", 1)) == 2
     assert "--resume" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("first_recorded", [False, True])
+def test_a_run_killed_before_its_run_json_resumes_only_as_it_was_started(tmp_path, first_recorded):
+    """Killed before it wrote run.json, a run is still known to have recorded or not (the parts
+    directory a recorded run makes first, or its recording): resuming it the other way would
+    leave finished replicates out of the recording, so it is refused."""
+    out = tmp_path / "r"
+    run_scenario(small_scenario(replicates=2), out, record=first_recorded)
+    for name in ("run.json", "summary.json", "steps.parquet"):  # as if killed before finalize
+        (out / name).unlink()
+    other = "with --no-record" if not first_recorded else "without --no-record"
+    with pytest.raises(OutputError, match=f"started {other}"):
+        run_scenario(small_scenario(replicates=3), out, record=not first_recorded, resume=True)
+    result = run_scenario(small_scenario(replicates=3), out, record=first_recorded, resume=True)
+    assert result.completed == 3

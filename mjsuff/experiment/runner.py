@@ -30,6 +30,7 @@ from mjsuff.experiment.results import (
     write_replicate,
 )
 from mjsuff.experiment.run_summary import (
+    RECORDING,
     RECORDINGS,
     CellResult,
     RunResult,
@@ -70,17 +71,27 @@ def check_resumable(directory: Path, scenario: Scenario, record: bool) -> None:
             f"{directory}: --resume: the run already has replicate {max(done)}; "
             f"--replicates can grow, not shrink (got {scenario.replicates})"
         )
-    for run_json in directory.glob("**/run.json"):
-        try:
-            was_recorded = json.loads(run_json.read_text()).get("recorded", True)
-        except (OSError, json.JSONDecodeError):
-            continue
-        if was_recorded != record:
+    for replicates in directory.glob("**/replicates"):
+        was_recorded = _was_recorded(replicates.parent)
+        if was_recorded is not None and was_recorded != record:
             flag = "without --no-record" if was_recorded else "with --no-record"
             raise OutputError(
                 f"{directory}: --resume: the run was started {flag}; resume it "
                 "the same way, so its recording covers every replicate"
             )
+
+
+def _was_recorded(cell_dir: Path) -> bool | None:
+    """Whether the run in ``cell_dir`` records: its ``run.json`` says so, or, for a run stopped
+    before it wrote one (killed), its recording or parts directory exists (a recorded run makes
+    the parts directory before its first replicate). None: no replicate finished there."""
+    try:
+        return bool(json.loads((cell_dir / "run.json").read_text()).get("recorded", True))
+    except (OSError, json.JSONDecodeError):
+        pass
+    if not any((cell_dir / "replicates").glob("replicate-*.parquet")):
+        return None
+    return (cell_dir / RECORDINGS).is_dir() or (cell_dir / RECORDING).exists()
 
 
 def _cell_directory(directory: Path, cell: SweepCell, sweep: bool) -> Path:
