@@ -138,3 +138,58 @@ def test_a_run_killed_before_its_run_json_resumes_only_as_it_was_started(tmp_pat
         run_scenario(small_scenario(replicates=3), out, record=not first_recorded, resume=True)
     result = run_scenario(small_scenario(replicates=3), out, record=first_recorded, resume=True)
     assert result.completed == 3
+
+
+def _write_part(path: Path, replicate: int) -> None:
+    import rerun as rr
+
+    rec = rr.RecordingStream(application_id="mjsuff", recording_id="merge-test")
+    rec.save(str(path))
+    for step in range(3):
+        rec.set_time("step", sequence=step)
+        rec.log(f"r{replicate}/v", rr.Scalars(float(step)))
+    rec.flush()
+    rec.disconnect()
+
+
+@pytest.mark.parametrize("killed_at", ["replace", "part deletion"])
+def test_a_merge_killed_midway_is_finished_without_duplicating_parts(tmp_path, monkeypatch, killed_at):
+    """A kill before the merged file replaces recording.rrd, or after it but before the parts are
+    deleted: the next merge leaves every replicate's series exactly once (the second case merges
+    the parts into a file that already holds them; rerun keeps one copy of a row it sees twice)."""
+    from mjsuff.experiment import run_summary
+    from mjsuff.experiment.results import write_replicate
+    from mjsuff.recording import Recording
+
+    (tmp_path / run_summary.RECORDINGS).mkdir()
+    (tmp_path / "replicates").mkdir()
+    for r in range(3):
+        write_replicate(tmp_path, r, [{"replicate": r}])
+        _write_part(tmp_path / run_summary.RECORDINGS / f"replicate-{r:05d}.rrd", r)
+    real_replace, real_unlink = Path.replace, Path.unlink
+
+    def replace(self, target):
+        if killed_at == "replace" and Path(target).name == run_summary.RECORDING:
+            raise KeyboardInterrupt
+        return real_replace(self, target)
+
+    def unlink(self, missing_ok=False):
+        if killed_at == "part deletion" and self.parent.name == run_summary.RECORDINGS:
+            raise KeyboardInterrupt
+        return real_unlink(self, missing_ok=missing_ok)
+
+    monkeypatch.setattr(Path, "replace", replace)
+    monkeypatch.setattr(Path, "unlink", unlink)
+    with pytest.raises(KeyboardInterrupt):
+        run_summary.merge_recordings(tmp_path)
+    monkeypatch.undo()
+    assert len(list((tmp_path / run_summary.RECORDINGS).glob("*.rrd"))) == 3  # the kill kept them all
+    assert (tmp_path / run_summary.RECORDING).exists() == (killed_at == "part deletion")
+
+    assert run_summary.merge_recordings(tmp_path) is None
+    assert not list((tmp_path / run_summary.RECORDINGS).glob("*.rrd"))
+    assert not list(tmp_path.glob(".*"))  # no journal, no temporary file
+    recording = Recording(tmp_path / run_summary.RECORDING)
+    for r in range(3):
+        steps = recording.series(f"r{r}/v", "Scalars:scalars", "step").column("step").to_pylist()
+        assert steps == [0, 1, 2]

@@ -62,6 +62,7 @@ def prepare_output(directory: Path, overwrite: bool, resume: bool = False) -> No
             "run.json",
             "sweep.json",
             "recording.rrd",
+            "recording.json",  # a manifest older versions of mjsuff wrote
         ):
             (directory / name).unlink(missing_ok=True)
         for name in ("cells", "recordings"):

@@ -81,7 +81,11 @@ def sampler_totals(steps: pd.DataFrame) -> dict[str, Any]:
 def merge_recordings(directory: Path) -> str | None:
     """Merge ``recording.rrd`` and the parts ``recordings/replicate-*.rrd`` of finished replicates
     into ``recording.rrd`` (atomically), then drop the merged parts and any orphans (a part whose
-    replicate's rows were never written). Returns None, or why the merge failed (parts kept)."""
+    replicate's rows were never written). Returns None, or why the merge failed (parts kept).
+
+    A merge killed after the replace but before the parts are dropped merges them again next time;
+    ``rerun rrd merge`` keeps one copy of rows it sees twice (same row ids), so nothing is
+    duplicated (tested in ``tests/test_resume.py``)."""
     parts_dir = directory / RECORDINGS
     if not parts_dir.is_dir():
         return None
