@@ -64,6 +64,13 @@ def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
     report = json.loads((tmp_path / "a" / "run.json").read_text())
     assert report["simulated_steps"] == counts["simulated_steps"].iloc[-1]
     assert report["diverged_rollouts"] == counts["diverged_rollouts"].iloc[-1]
+    # ... and how its ground truth was raised (one replicate: its own row values).
+    last = steps.iloc[-1]
+    assert report["truth"] == {
+        "raised_replicates": int(last["truth_raised_starts"] > 0),
+        "raised_starts": int(last["truth_raised_starts"]),
+        "largest_raise": float(last["truth_raise"]),
+    }
     # The run's recording shows the scene, each demo (playable on sim_time) and π_MAP.
     recording = Recording(tmp_path / "a" / RECORDING)
     paths = recording.entity_paths()

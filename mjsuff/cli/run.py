@@ -184,6 +184,15 @@ def print_summary(
             f"MuJoCo: {simulation['simulated_steps']:,} steps simulated; "
             f"{simulation['diverged_rollouts']:,} diverged rollouts detected and never scored"
         )
+        truth = result.truth
+        raised = truth.get("raised_replicates", 0)
+        say(
+            f"Ground truth: raised at the end of {raised} of {result.completed} replicates to the "
+            f"best they simulated under w* ({truth['raised_starts']} evaluation starts; by at most "
+            f"{truth['largest_raise']:.3f} of V* − V_rand)"
+            if raised
+            else "Ground truth: never raised (nothing the replicates simulated under w* beat it)"
+        )
     sampler = result.sampler
     if sampler.get("posteriors"):
         capped = sampler["unconverged_posteriors"]

@@ -42,6 +42,7 @@ class RunResult:
     cells: tuple[CellResult, ...] = ()
     recording_error: str | None = None
     sampler: dict[str, Any] = field(default_factory=dict)
+    truth: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,22 @@ def simulation_totals(steps: pd.DataFrame) -> dict[str, int]:
         return {c: 0 for c in columns}
     last = steps.groupby("replicate")[list(columns)].max()
     return {c: int(last[c].sum()) for c in columns}
+
+
+def truth_totals(steps: pd.DataFrame) -> dict[str, Any]:
+    """Ground truth raised at the end of a replicate (a scene's, to the best of everything the
+    replicate simulated under ``w*``) over the finished replicates: in how many, at how many
+    evaluation starts in all, and the largest raise (a share of ``V* − V_rand`` at its start).
+    An exact domain's truth is never raised."""
+    columns = ["truth_raised_starts", "truth_raise"]
+    if steps.empty or not all(c in steps for c in columns):
+        return {"raised_replicates": 0, "raised_starts": 0, "largest_raise": 0.0}
+    last = steps.groupby("replicate")[columns].max()
+    return {
+        "raised_replicates": int((last["truth_raised_starts"] > 0).sum()),
+        "raised_starts": int(last["truth_raised_starts"].sum()),
+        "largest_raise": float(last["truth_raise"].max()),
+    }
 
 
 def sampler_totals(steps: pd.DataFrame) -> dict[str, Any]:
@@ -152,12 +169,14 @@ def finalize(
     write_json(directory / "summary.json", {"scenario": scenario.name, **summary})
     simulation = simulation_totals(steps)
     sampler = sampler_totals(steps)
+    truth = truth_totals(steps)
     run = {
         **_run_info(directory, scenario, backend, recorded, started, interrupted),
         "planned_replicates": scenario.replicates,
         "completed_replicates": completed,
         **simulation,
         "sampler": sampler,
+        "truth": truth,
     }
     write_json(directory / "run.json", run)
     error = merge_recordings(directory)
@@ -173,6 +192,7 @@ def finalize(
         simulation,
         recording_error=error,
         sampler=sampler,
+        truth=truth,
     )
 
 
@@ -235,6 +255,11 @@ def finalize_sweep(
     sampler = {
         k: sum(c.result.sampler.get(k, 0) for c in results) for k in ("posteriors", "unconverged_posteriors")
     }
+    truth = {
+        "raised_replicates": sum(c.result.truth.get("raised_replicates", 0) for c in results),
+        "raised_starts": sum(c.result.truth.get("raised_starts", 0) for c in results),
+        "largest_raise": max((c.result.truth.get("largest_raise", 0.0) for c in results), default=0.0),
+    }
     write_json(
         directory / "run.json",
         {
@@ -244,6 +269,7 @@ def finalize_sweep(
             "completed_replicates": completed,
             **simulation,
             "sampler": sampler,
+            "truth": truth,
         },
     )
     errors = [c.result.recording_error for c in results if c.result.recording_error]
@@ -257,4 +283,5 @@ def finalize_sweep(
         tuple(results),
         errors[0] if errors else None,
         sampler,
+        truth,
     )
