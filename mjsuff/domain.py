@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from mjsuff.posterior.likelihood import lapse_log_likelihood
+
 Policy = Any
 """A domain's robot policy: opaque above the seam (an action per state for tabular domains)."""
 BoundIndex = Callable[[np.ndarray], int]
@@ -62,8 +64,22 @@ class Domain(abc.ABC):
         """The expert's demonstration from pool entry ``start`` (a poor one when ``poor``)."""
 
     @abc.abstractmethod
-    def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
-        """Boltzmann log-likelihood ``log P(D | w)`` for a batch ``(N, k)`` of weights -> ``(N,)``."""
+    def demo_log_likelihoods(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
+        """Boltzmann log-likelihood ``log P_β(d_j | w)`` of each demo (Eq. 1) for a batch ``(N, k)``
+        of weights -> ``(N, D)``."""
+
+    @abc.abstractmethod
+    def choice_counts(self, demos: list[Demo]) -> np.ndarray:
+        """``|C_j|``: how many alternatives (the demo's own included) each demo's Boltzmann term
+        normalizes over -> ``(D,)``."""
+
+    def log_likelihood(
+        self, weights: np.ndarray, demos: list[Demo], beta: float, lapse: float = 0.0
+    ) -> np.ndarray:
+        """``log P(D | w)`` for a batch ``(N, k)`` of weights -> ``(N,)``: Boltzmann (Eq. 1) with
+        lapse rate ``lapse`` (``mjsuff.posterior.likelihood``; 0 is the paper's likelihood)."""
+        per_demo = self.demo_log_likelihoods(np.atleast_2d(weights), demos, beta)
+        return lapse_log_likelihood(per_demo, self.choice_counts(demos), lapse)
 
     @abc.abstractmethod
     def alternatives_better(self, demo: Demo, w: np.ndarray) -> int:

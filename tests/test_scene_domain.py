@@ -84,6 +84,10 @@ def test_likelihood_is_a_boltzmann_distribution_over_the_candidates(case):
     np.testing.assert_allclose(np.exp(ll), probs[:, 0], rtol=1e-10)
     total = domain.log_likelihood(w, demos, BETA)
     np.testing.assert_allclose(total, sum(domain.log_likelihood(w, [d], BETA) for d in demos))
+    # With a lapse rate ε, each demo's probability is (1 − ε) of that plus ε over the candidates.
+    np.testing.assert_array_equal(domain.choice_counts(demos[:1]), [len(candidates)])
+    lapsed = domain.log_likelihood(w, demos[:1], BETA, lapse=0.25)
+    np.testing.assert_allclose(np.exp(lapsed), 0.75 * probs[:, 0] + 0.25 / len(candidates), rtol=1e-10)
 
 
 def test_demos_are_informative_about_the_true_weights(case):

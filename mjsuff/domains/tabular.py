@@ -280,10 +280,10 @@ class TabularDomain(Domain):
         return Demo(start=start, action=int(best[0]), poor=False)
 
     # -- learner ------------------------------------------------------------------------------
-    def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
+    def demo_log_likelihoods(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
         weights = np.atleast_2d(weights)
         if not demos:
-            return np.zeros(weights.shape[0])
+            return np.zeros((weights.shape[0], 0))
         q, _ = self.cache.solve(weights)
         states = self.pool[[d.start for d in demos]]
         actions = np.array([d.action for d in demos])
@@ -294,7 +294,11 @@ class TabularDomain(Domain):
         peak = by_action.max(axis=0)
         log_z = peak + np.log(np.exp(by_action - peak).sum(axis=0))
         chosen = q_demo[:, np.arange(len(demos)), actions]
-        return (chosen - log_z).sum(axis=1)
+        return chosen - log_z
+
+    def choice_counts(self, demos: list[Demo]) -> np.ndarray:
+        """Every action at the demo's state."""
+        return np.full(len(demos), self.mdp.num_actions)
 
     def alternatives_better(self, demo: Demo, w: np.ndarray) -> int:
         """Actions whose ``Q_w`` at the demo's state exceeds the demo action's (ties excluded)."""

@@ -107,7 +107,7 @@ def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[D
 def calibrate(
     scenario: Scenario, instances: int, on_instance: Callable[[InstanceCalibration], None] | None = None
 ) -> Calibration:
-    """Fit β on ``instances`` calibration instances of ``scenario``.
+    """Fit β on ``instances`` calibration instances of ``scenario`` (at the scenario's lapse rate).
 
     Raises:
         UsageError: If ``instances`` < 1.
@@ -116,14 +116,19 @@ def calibrate(
         raise UsageError(f"--instances: expected at least 1, got {instances}")
     curves: list[Callable[[float], float]] = []
     results: list[InstanceCalibration] = []
+    lapse = scenario.demos.lapse
     for i in range(instances):
         domain, demos = calibration_demos(scenario, i)
         w = np.asarray(domain.true_weights, dtype=float)[None]
 
         def curve(
-            beta: float, domain: Domain = domain, demos: list[Demo] = demos, w: np.ndarray = w
+            beta: float,
+            domain: Domain = domain,
+            demos: list[Demo] = demos,
+            w: np.ndarray = w,
+            lapse: float = lapse,
         ) -> float:
-            return float(domain.log_likelihood(w, demos, beta)[0])
+            return float(domain.log_likelihood(w, demos, beta, lapse)[0])
 
         beaten = tuple(domain.alternatives_better(d, w[0]) for d in demos)
         result = InstanceCalibration(i, len(demos), sum(d.poor for d in demos), fit_beta(curve), beaten)

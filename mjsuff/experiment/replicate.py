@@ -180,6 +180,7 @@ class _Posteriors:
 
     def __init__(self, scenario: Scenario, replicate: int, domain: Domain, demos: list[Demo]) -> None:
         self.seed, self.replicate, self.beta = scenario.seed, replicate, scenario.demos.beta
+        self.lapse = scenario.demos.lapse
         self.domain, self.demos = domain, demos
         self.sampler = scenario.sampler()
         chains = self.sampler.chains
@@ -204,7 +205,7 @@ class _Posteriors:
             if initial is None and not domain.uniform_prior:  # start the chains in the support
                 initial = domain.sample_prior(rng, 4 * settings.chains)
             post = sample_posterior(
-                lambda w: domain.log_prior(w) + domain.log_likelihood(w, used, self.beta),
+                lambda w: domain.log_prior(w) + domain.log_likelihood(w, used, self.beta, self.lapse),
                 domain.num_features,
                 settings,
                 rng,

@@ -47,6 +47,13 @@ class DemoSettings(_Strict):
     selection: Literal["passive", "active"] = "passive"
     noise_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of poor demos")
     beta: float = Field(10.0, gt=0.0, le=1000.0, description="Boltzmann rationality of the likelihood")
+    lapse: float = Field(
+        0.0,
+        ge=0.0,
+        lt=1.0,
+        description="lapse rate of the likelihood: the chance the demonstrator picks uniformly among "
+        "a demo's alternatives (0: the paper's Boltzmann likelihood)",
+    )
 
 
 class SufficiencySettings(_Strict):

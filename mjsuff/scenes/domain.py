@@ -391,14 +391,18 @@ class SceneDomain(Domain):
         values = self.candidate_features(demo) @ np.asarray(w, dtype=float)
         return int(np.sum(values[1:] > values[0] + 1e-12))
 
-    def log_likelihood(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
-        """``Σ_j log P(φ_j | w)`` for weights ``(N, k)`` -> ``(N,)`` (see the module docstring)."""
+    def demo_log_likelihoods(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
+        """``log P(φ_j | w)`` of each demo for weights ``(N, k)`` -> ``(N, D)`` (module docstring)."""
         weights = np.atleast_2d(weights)
-        total = np.zeros(len(weights))
-        for demo in demos:
+        per_demo = np.zeros((len(weights), len(demos)))
+        for j, demo in enumerate(demos):
             values = beta * (weights @ self.candidate_features(demo).T)
-            total += values[:, 0] - logsumexp(values, axis=1)
-        return total
+            per_demo[:, j] = values[:, 0] - logsumexp(values, axis=1)
+        return per_demo
+
+    def choice_counts(self, demos: list[Demo]) -> np.ndarray:
+        """The size of each demo's candidate set ``C_j``, the demo included."""
+        return np.array([len(self.candidate_features(demo)) for demo in demos])
 
 
 def draw_instance(
