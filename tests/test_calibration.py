@@ -12,7 +12,7 @@ from scipy.special import logsumexp
 from mjsuff.cli import main
 from mjsuff.experiment.calibration import calibrate, calibration_demos
 from mjsuff.experiment.replicate import make_instance
-from mjsuff.posterior.calibration import BETA_RANGE, CalibrationError, fit_beta
+from mjsuff.posterior.calibration import BETA_RANGE, CalibrationError, fit_beta, fit_lapse
 from tests.conftest import small_scenario
 
 SCENARIOS = Path(__file__).parent.parent / "scenarios"
@@ -81,6 +81,42 @@ def test_bad_range_and_non_finite_likelihood_are_named():
         fit_beta(lambda b: math.nan)
 
 
+def lapsing_choices(seed: int, beta: float, lapse: float, n: int = 1000, m: int = 6):
+    """``(β, ε) -> Σ_j log[(1 − ε) softmax(β v_j)[c_j] + ε/m]`` for ``n`` choices among ``m``
+    made by a demonstrator who lapses (a uniform pick) with probability ``lapse``."""
+    rng = np.random.default_rng(seed)
+    values = rng.uniform(0.0, 1.0, (n, m))
+    p = np.exp(beta * values - logsumexp(beta * values, axis=1, keepdims=True))
+    chosen = np.array([rng.choice(m, p=row) for row in (1 - lapse) * p + lapse / m])
+    rows = np.arange(n)
+
+    def log_likelihood(b: float, e: float) -> float:
+        boltzmann = b * values[rows, chosen] - logsumexp(b * values, axis=1)
+        uniform = (math.log(e) if e > 0 else -math.inf) - math.log(m)
+        return float(np.sum(np.logaddexp(math.log1p(-e) + boltzmann, uniform)))
+
+    return log_likelihood
+
+
+@pytest.mark.parametrize("lapse_true", [0.0, 0.25])
+def test_fit_lapse_recovers_the_rate_and_beta_of_a_lapsing_demonstrator(lapse_true):
+    """1000 choices among 6 at β = 10: over 10 seeds ε̂ fell within one grid step (0.025) of the
+    truth, β̂ within 11%; the test allows three steps and 20%."""
+    fit = fit_lapse(lapsing_choices(12, 10.0, lapse_true))
+    assert abs(fit.lapse - lapse_true) <= 0.075 + 1e-9
+    assert abs(fit.fit.beta - 10.0) < 2.0
+    lapses = [e for e, _ in fit.profile]
+    assert lapses == sorted(lapses) and lapses[0] == 0.0 and lapses[-1] == 0.5
+    assert fit.fit.log_likelihood == max(ll for _, ll in fit.profile)
+
+
+def test_fit_lapse_rejects_rates_outside_zero_to_one():
+    with pytest.raises(ValueError, match="lapses"):
+        fit_lapse(lambda b, e: 0.0, lapses=(0.0, 1.0))
+    with pytest.raises(ValueError, match="lapses"):
+        fit_lapse(lambda b, e: 0.0, lapses=())
+
+
 def test_calibration_instances_are_not_the_runs_and_are_seeded():
     scenario = small_scenario(**{"demos.max_demos": 12})
     domain, demos = calibration_demos(scenario, 0)
@@ -105,6 +141,15 @@ def test_optimal_demos_fit_no_finite_beta_and_poor_ones_a_small_one():
     # The pooled fit maximizes a sum of concave curves: its β lies between the instances'.
     fits = [c.fit for c in noisy.instances]
     assert min(f.beta for f in fits) - 1e-3 <= noisy.pooled.beta <= max(f.beta for f in fits) + 1e-3
+    # Fitting the lapse rate too: its profile includes ε = 0 (the fit above), so it fits at least
+    # as well. (Here β̂ is small enough that a Boltzmann choice already looks like a lapse: ε̂ = 0.)
+    lapsed = calibrate(
+        small_scenario(**{"demos.max_demos": 12, "demos.noise_fraction": 0.4}), 3, fit_lapse=True
+    )
+    assert lapsed.profile is not None and lapsed.profile.profile[0][0] == 0.0
+    assert lapsed.profile.profile[0][1] == pytest.approx(noisy.pooled.log_likelihood, abs=1e-9)
+    assert lapsed.pooled.log_likelihood >= noisy.pooled.log_likelihood - 1e-12
+    assert lapsed.to_dict()["lapse_fitted"] and len(lapsed.to_dict()["lapse_profile"]) == 21
 
 
 TINY_SCENE = [

@@ -24,9 +24,15 @@ def add_parser(commands: Any) -> None:
         description="The calibration stage of the paper's §6.2: draw calibration instances "
         "(never the ones a run is scored on), collect the demos a passive run would get, and fit "
         "β by maximum likelihood under the known w*, per instance and pooled. Set demos.beta in "
-        "the scenario to the pooled value.",
+        "the scenario to the pooled value. With --fit-lapse, the lapse rate (demos.lapse) is "
+        "fitted with it, by profile likelihood over 0, 0.025, ..., 0.5.",
     )
     cal.add_argument("--instances", type=int, default=4, help="calibration instances (default 4)")
+    cal.add_argument(
+        "--fit-lapse",
+        action="store_true",
+        help="also fit the likelihood's lapse rate (default: β at the scenario's demos.lapse)",
+    )
     cal.add_argument("--json", metavar="FILE", help="also write the fits to this .json file")
     cal.set_defaults(func=cmd_calibrate)
 
@@ -44,7 +50,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         raise UsageError(f"--json {json_path}: directory {json_path.parent} does not exist")
     table = Table(
         title=f"β by maximum likelihood under w*, {scenario.name} "
-        f"(β in the scenario: {scenario.demos.beta:g})"
+        f"(β in the scenario: {scenario.demos.beta:g}, lapse rate {scenario.demos.lapse:g})"
     )
     for col in ("instance", "demos", "poor", "β̂", "log-lik.", "demo beaten by"):
         table.add_column(col, justify="right")
@@ -61,11 +67,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             f"{c.fit.log_likelihood:.2f}",
             beaten_by,
         )
-        progress.advance(task)
 
     try:
         with progress:
-            result = calibrate(scenario, args.instances, on_instance)
+            result = calibrate(
+                scenario, args.instances, on_instance, args.fit_lapse, lambda _: progress.advance(task)
+            )
     except MjsuffError as exc:
         raise in_context(args.scenario, exc) from exc
     except KeyboardInterrupt:
@@ -73,6 +80,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     if not args.quiet:
         out.print(table)
+    if result.profile is not None:
+        say(f"lapse rate by profile likelihood: ε̂ = {result.lapse:g} (every β̂ here is at ε̂)")
     say(f"pooled over {args.instances} instance(s): β̂ = {show(result.pooled)}")
     if json_path:
         payload = {"scenario": str(args.scenario), "seed": scenario.seed, **result.to_dict()}

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -28,7 +29,8 @@ from mjsuff.domain import Demo, Domain
 from mjsuff.errors import UsageError
 from mjsuff.experiment.replicate import make_instance
 from mjsuff.experiment.scenario import Scenario
-from mjsuff.posterior.calibration import BetaFit, fit_beta
+from mjsuff.posterior.calibration import BetaFit, LapseFit, fit_beta
+from mjsuff.posterior.calibration import fit_lapse as fit_lapse_rate
 from mjsuff.seeds import stream_rng, stream_seed
 
 
@@ -49,10 +51,13 @@ class InstanceCalibration:
 
 @dataclass(frozen=True)
 class Calibration:
-    """Per-instance fits and the fit pooled over every instance's demos."""
+    """Per-instance fits and the fit pooled over every instance's demos, at lapse rate ``lapse``
+    (the scenario's, or fitted: then ``profile`` holds the lapse fit)."""
 
     instances: list[InstanceCalibration]
     pooled: BetaFit
+    lapse: float = 0.0
+    profile: LapseFit | None = None
 
     def to_dict(self) -> dict:
         def fit(f: BetaFit) -> dict:
@@ -64,7 +69,11 @@ class Calibration:
                 "standard_error": f.standard_error if math.isfinite(f.standard_error) else None,
             }
 
+        lapse: dict[str, Any] = {"lapse": self.lapse, "lapse_fitted": self.profile is not None}
+        if self.profile is not None:
+            lapse["lapse_profile"] = [{"lapse": e, "log_likelihood": ll} for e, ll in self.profile.profile]
         return {
+            **lapse,
             "pooled": fit(self.pooled),
             "instances": [
                 {
@@ -105,36 +114,50 @@ def calibration_demos(scenario: Scenario, instance: int) -> tuple[Domain, list[D
 
 
 def calibrate(
-    scenario: Scenario, instances: int, on_instance: Callable[[InstanceCalibration], None] | None = None
+    scenario: Scenario,
+    instances: int,
+    on_instance: Callable[[InstanceCalibration], None] | None = None,
+    fit_lapse: bool = False,
+    on_demos: Callable[[int], None] | None = None,
 ) -> Calibration:
-    """Fit β on ``instances`` calibration instances of ``scenario`` (at the scenario's lapse rate).
+    """Fit β on ``instances`` calibration instances of ``scenario``: at the scenario's lapse rate,
+    or, with ``fit_lapse``, at the lapse rate fitted with it over every instance's demos (profile
+    likelihood, ``mjsuff.posterior.calibration.fit_lapse``). ``on_demos(i)`` follows each
+    instance's demos (the slow part), ``on_instance`` each instance's fit.
 
     Raises:
         UsageError: If ``instances`` < 1.
     """
     if instances < 1:
         raise UsageError(f"--instances: expected at least 1, got {instances}")
-    curves: list[Callable[[float], float]] = []
-    results: list[InstanceCalibration] = []
-    lapse = scenario.demos.lapse
+    curves: list[Callable[[float, float], float]] = []
+    collected: list[tuple[Domain, list[Demo]]] = []
     for i in range(instances):
         domain, demos = calibration_demos(scenario, i)
         w = np.asarray(domain.true_weights, dtype=float)[None]
 
         def curve(
-            beta: float,
-            domain: Domain = domain,
-            demos: list[Demo] = demos,
-            w: np.ndarray = w,
-            lapse: float = lapse,
+            beta: float, lapse: float, domain: Domain = domain, demos: list[Demo] = demos, w: np.ndarray = w
         ) -> float:
             return float(domain.log_likelihood(w, demos, beta, lapse)[0])
 
-        beaten = tuple(domain.alternatives_better(d, w[0]) for d in demos)
-        result = InstanceCalibration(i, len(demos), sum(d.poor for d in demos), fit_beta(curve), beaten)
         curves.append(curve)
-        results.append(result)
+        collected.append((domain, demos))
+        if on_demos is not None:
+            on_demos(i)
+    profile = None
+    if fit_lapse:
+        profile = fit_lapse_rate(lambda beta, lapse: sum(c(beta, lapse) for c in curves))
+        lapse, pooled = profile.lapse, profile.fit
+    else:
+        lapse = scenario.demos.lapse
+        pooled = fit_beta(lambda beta: sum(c(beta, lapse) for c in curves))
+    results: list[InstanceCalibration] = []
+    for i, ((domain, demos), instance_curve) in enumerate(zip(collected, curves, strict=True)):
+        w = np.asarray(domain.true_weights, dtype=float)
+        beaten = tuple(domain.alternatives_better(d, w) for d in demos)
+        fit = fit_lapse_rate(instance_curve, lapses=(lapse,)).fit  # β̂ at ε
+        results.append(InstanceCalibration(i, len(demos), sum(d.poor for d in demos), fit, beaten))
         if on_instance is not None:
-            on_instance(result)
-    pooled = fit_beta(lambda beta: sum(c(beta) for c in curves))
-    return Calibration(results, pooled)
+            on_instance(results[-1])
+    return Calibration(results, pooled, lapse, profile)

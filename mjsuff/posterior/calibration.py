@@ -7,6 +7,10 @@ scenes). The log-likelihood is concave in β (its second derivative is minus the
 demo's candidates' values under the Boltzmann choice), so a bounded 1-D search on ``log β`` finds
 the maximum. When every demo is the best of its alternatives the likelihood rises without bound
 and no finite β fits; the fit says so instead of returning the search's upper end.
+
+The lapse rate ε (``mjsuff.posterior.likelihood``) is fitted the same way when asked, by profile
+likelihood: β̂(ε) for each ε of a grid, and the ε whose fit is best. The grid stops at 0.5: a
+demonstrator who lapses more often than not is not one to learn from.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 from scipy.optimize import minimize_scalar
 
@@ -21,6 +26,8 @@ from mjsuff.errors import MjsuffError
 
 #: Search range for β.
 BETA_RANGE = (0.01, 1000.0)
+#: The lapse rates the profile likelihood compares (step 0.025).
+LAPSE_GRID = tuple(round(0.025 * i, 3) for i in range(21))
 #: Log-likelihood difference below which the upper end of the range counts as the maximum.
 PLATEAU = 1e-6
 
@@ -92,3 +99,41 @@ def fit_beta(
     curvature = (value(beta + h) - 2.0 * best + value(beta - h)) / h**2
     se = 1.0 / math.sqrt(-curvature) if curvature < 0 else math.inf
     return BetaFit(beta, best, False, se)
+
+
+@dataclass(frozen=True)
+class LapseFit:
+    """A maximum-likelihood lapse rate and the β that goes with it.
+
+    Attributes:
+        lapse: The fitted lapse rate ε̂ (a point of the grid searched).
+        fit: β̂ at ε̂.
+        profile: ``(ε, log-likelihood at β̂(ε))`` for every ε searched.
+    """
+
+    lapse: float
+    fit: BetaFit
+    profile: tuple[tuple[float, float], ...]
+
+
+def fit_lapse(
+    log_likelihood: Callable[[float, float], float],
+    lapses: tuple[float, ...] = LAPSE_GRID,
+    beta_range: tuple[float, float] = BETA_RANGE,
+) -> LapseFit:
+    """The ``(ε, β)`` maximizing ``log_likelihood(β, ε)``: ``fit_beta`` at each ε of ``lapses``
+    (each in ``[0, 1)``), and the best (the smallest ε among equals).
+
+    Raises:
+        ValueError: If ``lapses`` is empty or holds a rate outside ``[0, 1)``.
+        CalibrationError: As ``fit_beta``.
+    """
+    if not lapses or not all(0.0 <= e < 1.0 for e in lapses):
+        raise ValueError(f"lapses: expected rates in [0, 1), got {lapses}")
+    fits = [(e, fit_beta(partial(_at_lapse, log_likelihood, e), beta_range)) for e in sorted(lapses)]
+    best_lapse, best = max(fits, key=lambda ef: (ef[1].log_likelihood, -ef[0]))
+    return LapseFit(best_lapse, best, tuple((e, f.log_likelihood) for e, f in fits))
+
+
+def _at_lapse(log_likelihood: Callable[[float, float], float], lapse: float, beta: float) -> float:
+    return log_likelihood(beta, lapse)
