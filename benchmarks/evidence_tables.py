@@ -7,7 +7,10 @@ mean and how often it is at least the truth; with poor demos, that split at each
 poor demo); every rule's F1 and demos needed (the baselines at ``--epsilon``) with CIs and the
 bound rules' accuracy at their stop; how often the end-of-replicate truth was raised. With
 ``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR, replicate by replicate
-(the same instances when both runs share the seed), with a CI.
+(the same instances when both runs share the seed), with a CI; and the share of each replicate's
+checks whose nEVD bound is at least the truth, this run against OTHER_RUN_DIR (Wilcoxon
+signed-rank test over replicates), and, per nEVD threshold, whether the bound held at the rule's
+stop (exact McNemar test on the replicates where the runs disagree).
 
 One observation per replicate: the bootstrap resamples replicates, never steps.
 """
@@ -19,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy.stats import binomtest, wilcoxon
 
 from mjsuff.experiment.measures import evaluated_rows, measure_group
 
@@ -164,6 +168,39 @@ def paired(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
     return text
 
 
+def paired_coverage(steps: pd.DataFrame, other: pd.DataFrame) -> str:
+    """Per replicate, the share of its nEVD checks with bound ≥ truth, this run against ``other``;
+    and per nEVD threshold, bound ≥ truth at the rule's stop (one observation per replicate)."""
+
+    def shares(frame: pd.DataFrame) -> pd.Series:
+        first = nevd_checks(frame)
+        return (first["bound"] >= first["true_nevd"]).groupby(first["replicate"]).mean()
+
+    a, b = shares(steps), shares(other)
+    both = a.index.intersection(b.index)
+    diff = (a[both] - b[both]).to_numpy(float)
+    low, high = ci(diff)
+    p = wilcoxon(diff).pvalue if np.any(diff != 0) else 1.0
+    text = (
+        f"Share of a replicate's checks with bound ≥ true nEVD: {a[both].mean():.2f} here, "
+        f"{b[both].mean():.2f} there; difference {diff.mean():+.2f} ({low:+.2f} to {high:+.2f}), "
+        f"Wilcoxon signed-rank p = {p:.2g} over {len(both)} replicates.\n\n"
+        "| nEVD threshold | bound ≥ truth at the stop, here | there | here only | there only | McNemar p |\n"
+        "| --- | --- | --- | --- | --- | --- |\n"
+    )
+    nevd, theirs = steps[steps["rule"] == "nevd"], other[other["rule"] == "nevd"]
+    for param, group in nevd.groupby("param"):
+        here = evaluated_rows(group).set_index("replicate")
+        there = evaluated_rows(theirs[theirs["param"] == param]).set_index("replicate")
+        reps = here.index.intersection(there.index)
+        x = (here.loc[reps, "bound"] >= here.loc[reps, "true_nevd"]).to_numpy()
+        y = (there.loc[reps, "bound"] >= there.loc[reps, "true_nevd"]).to_numpy()
+        only_x, only_y = int(np.sum(x & ~y)), int(np.sum(~x & y))
+        mcnemar = binomtest(only_x, only_x + only_y).pvalue if only_x + only_y else 1.0
+        text += f"| {param:g} | {x.mean():.2f} | {y.mean():.2f} | {only_x} | {only_y} | {mcnemar:.2g} |\n"
+    return text
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run", type=Path)
@@ -180,7 +217,9 @@ def main() -> None:
     print(rules(steps, args.epsilon))
     print(truth_raised(steps))
     if args.paired:
-        print(paired(steps, load(args.paired), args.epsilon))
+        other = load(args.paired)
+        print(paired(steps, other, args.epsilon))
+        print(paired_coverage(steps, other))
 
 
 if __name__ == "__main__":
