@@ -14,7 +14,7 @@ from mjsuff.cli import main
 from mjsuff.experiment.measures import measure_group
 from mjsuff.experiment.runner import run_scenario
 from mjsuff.report import ReportError, compare_rules, load_cells
-from mjsuff.report.figures import f1_with_se, replicate_outcomes, rule_curves
+from mjsuff.report.figures import f1_with_se, noise_ablation, noise_table, replicate_outcomes, rule_curves
 from mjsuff.report.statistics import observations
 from tests.conftest import small_scenario
 
@@ -175,3 +175,29 @@ def test_rule_observations_of_a_run_are_one_per_replicate_and_rule(sweep_run):
                 "patience": replicates,
                 "validation": replicates,
             }
+
+
+def test_noise_ablation_keeps_every_series_of_a_two_axis_sweep(tmp_path):
+    """A noise × lapse sweep reports a noise series per lapse rate, not only the first one's."""
+    directory = tmp_path / "run"
+    run_scenario(
+        small_scenario(replicates=2, sweep={"demos.noise_fraction": [0.0, 0.4], "demos.lapse": [0.0, 0.2]}),
+        directory,
+        record=False,
+    )
+    cells = load_cells([directory])
+    table = noise_table(cells)
+    assert sorted(table["series"].unique()) == ["lapse = 0.0", "lapse = 0.2"]
+    for series, group in table.groupby("series"):
+        assert sorted(group["noise"].unique()) == [0.0, 0.4]
+        cell = next(
+            c
+            for c in cells
+            if f"lapse = {c.labels['demos.lapse']}" == series and c.labels["demos.noise_fraction"] == 0.4
+        )
+        row = group[(group["noise"] == 0.4)].iloc[0]
+        nevd = cell.steps[(cell.steps["rule"] == "nevd") & (cell.steps["param"] == row["epsilon"])]
+        assert row["f1"] == pytest.approx(measure_group(nevd, False, row["epsilon"])["f1"], nan_ok=True)
+    assert noise_ablation(cells, tmp_path / "noise.png").read_bytes()[:8] == PNG
+    # One series: no series column, as before.
+    assert "series" not in noise_table([c for c in cells if c.labels["demos.lapse"] == 0.0])

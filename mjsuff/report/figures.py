@@ -4,11 +4,13 @@
   standard-error bands: bootstrap over replicates for F1, the SEM for demos.
 * ``bound_vs_demos`` — the α-VaR nEVD bound and the true nEVD of π_MAP vs. the number of demos
   (paper Fig. 2), mean ± SEM over replicates.
-* ``noise_ablation`` — the nEVD rule's accuracy, TPR and FPR vs. the share of poor demos.
+* ``noise_ablation`` — the nEVD rule's accuracy, TPR and FPR vs. the share of poor demos, a line
+  per ε and per value of the cells' other labels (e.g. the likelihood's lapse rate).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -169,52 +171,62 @@ def bound_vs_demos(cells: list[ReportCell], path: Path) -> Path:
 NOISE_KEY = "demos.noise_fraction"
 
 
+def _series_name(labels: dict[str, Any]) -> str:
+    """A cell's labels other than the noise fraction, as text ("" when it has none)."""
+    return ", ".join(f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if k != NOISE_KEY)
+
+
 def noise_table(cells: list[ReportCell]) -> pd.DataFrame:
-    """The nEVD rule's accuracy, TPR, FPR, F1 per noise fraction and ε. Only cells with a noise
-    label whose other labels equal the first such cell's are used (in a noise × β sweep: the
-    noise series at the first β)."""
+    """The nEVD rule's accuracy, TPR, FPR, F1 per noise fraction and ε, one series per value of
+    the cells' other labels (in a noise × lapse sweep: a noise series per lapse rate; the column
+    ``series`` names it when there is more than one)."""
     rows = []
-    noisy = [c for c in cells if NOISE_KEY in c.labels]
-    others = {k: v for k, v in noisy[0].labels.items() if k != NOISE_KEY} if noisy else {}
-    for cell in noisy:
-        if {k: v for k, v in cell.labels.items() if k != NOISE_KEY} != others:
-            continue
+    for cell in (c for c in cells if NOISE_KEY in c.labels):
         nevd = cell.steps[cell.steps["rule"] == "nevd"]
         for eps, group in nevd.groupby("param"):
             m = measure_group(group, False, float(eps))
             rows.append(
                 {
+                    "series": _series_name(cell.labels),
                     "noise": float(cell.labels[NOISE_KEY]),
                     "epsilon": float(eps),
                     **{k: m[k] for k in ("accuracy", "tpr", "fpr", "f1", "demos_needed", "replicates")},
                 }
             )
-    return pd.DataFrame(rows).sort_values(["epsilon", "noise"]) if rows else pd.DataFrame()
+    if not rows:
+        return pd.DataFrame()
+    table = pd.DataFrame(rows).sort_values(["series", "epsilon", "noise"], kind="stable")
+    return table if table["series"].nunique() > 1 else table.drop(columns="series")
 
 
 def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
-    """Accuracy, TPR and FPR of the nEVD rule vs. the share of poor demos, one line per ε."""
+    """Accuracy, TPR and FPR of the nEVD rule vs. the share of poor demos: one colour per ε, one
+    line style per series (the cells' other labels)."""
     table = noise_table(cells)
     if table.empty or table["noise"].nunique() < 2:
         return None
+    if "series" not in table:
+        table = table.assign(series="")
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.2), sharex=True)
     cmap = plt.get_cmap("viridis")
     epsilons = sorted(table["epsilon"].unique())
+    styles = dict(zip(sorted(table["series"].unique()), ("-", "--", ":", "-."), strict=False))
     for ax, measure, title in zip(
         axes,
         ("accuracy", "tpr", "fpr"),
         ("Bound accuracy", "True-positive rate", "False-positive rate"),
         strict=True,
     ):
-        for i, eps in enumerate(epsilons):
-            line = table[table["epsilon"] == eps]
+        for (series, style), (i, eps) in itertools.product(styles.items(), enumerate(epsilons)):
+            line = table[(table["epsilon"] == eps) & (table["series"] == series)]
             ax.plot(
                 line["noise"],
                 line[measure],
                 marker="o",
                 markersize=3,
+                linestyle=style,
                 color=cmap(i / max(1, len(epsilons) - 1)),
-                label=f"ε = {eps:g}",
+                label=", ".join(filter(None, (f"ε = {eps:g}", series))),
             )
         ax.set(xlabel="share of poor demos", title=title, ylim=(-0.02, 1.05))
     axes[-1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
