@@ -29,7 +29,7 @@ from mjsuff.domain import Demo, Domain
 from mjsuff.errors import UsageError
 from mjsuff.experiment.replicate import make_instance
 from mjsuff.experiment.scenario import Scenario
-from mjsuff.posterior.calibration import BetaFit, LapseFit, fit_beta
+from mjsuff.posterior.calibration import BetaFit, LapseFit, at_lapse, fit_beta
 from mjsuff.posterior.calibration import fit_lapse as fit_lapse_rate
 from mjsuff.seeds import stream_rng, stream_seed
 
@@ -156,13 +156,8 @@ def calibrate(
     for i, ((domain, demos), instance_curve) in enumerate(zip(collected, curves, strict=True)):
         w = np.asarray(domain.true_weights, dtype=float)
         beaten = tuple(domain.alternatives_better(d, w) for d in demos)
-        fit = fit_beta(_at_lapse(instance_curve, lapse))  # β̂ at the pooled ε
+        fit = fit_beta(at_lapse(instance_curve, lapse))  # β̂ at the pooled ε
         results.append(InstanceCalibration(i, len(demos), sum(d.poor for d in demos), fit, beaten))
         if on_instance is not None:
             on_instance(results[-1])
     return Calibration(results, pooled, lapse, profile)
-
-
-def _at_lapse(curve: Callable[[float, float], float], lapse: float) -> Callable[[float], float]:
-    """``curve(β, ε)`` as a function of β alone, at ``lapse``."""
-    return lambda beta: curve(beta, lapse)

@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
 
 from scipy.optimize import minimize_scalar
 
@@ -130,10 +129,11 @@ def fit_lapse(
     """
     if not lapses or not all(0.0 <= e < 1.0 for e in lapses):
         raise ValueError(f"lapses: expected rates in [0, 1), got {lapses}")
-    fits = [(e, fit_beta(partial(_at_lapse, log_likelihood, e), beta_range)) for e in sorted(lapses)]
+    fits = [(e, fit_beta(at_lapse(log_likelihood, e), beta_range)) for e in sorted(lapses)]
     best_lapse, best = max(fits, key=lambda ef: (ef[1].log_likelihood, -ef[0]))
     return LapseFit(best_lapse, best, tuple((e, f.log_likelihood) for e, f in fits))
 
 
-def _at_lapse(log_likelihood: Callable[[float, float], float], lapse: float, beta: float) -> float:
-    return log_likelihood(beta, lapse)
+def at_lapse(log_likelihood: Callable[[float, float], float], lapse: float) -> Callable[[float], float]:
+    """``log_likelihood(β, ε)`` as a function of β alone, at ε = ``lapse``."""
+    return lambda beta: log_likelihood(beta, lapse)

@@ -210,7 +210,7 @@ def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.2), sharex=True)
     cmap = plt.get_cmap("viridis")
     epsilons = sorted(table["epsilon"].unique())
-    styles = dict(zip(sorted(table["series"].unique()), ("-", "--", ":", "-."), strict=False))
+    styles = dict(zip(sorted(table["series"].unique()), itertools.cycle(("-", "--", ":", "-."))))
     for ax, measure, title in zip(
         axes,
         ("accuracy", "tpr", "fpr"),
