@@ -201,3 +201,16 @@ def test_noise_ablation_keeps_every_series_of_a_two_axis_sweep(tmp_path):
     assert noise_ablation(cells, tmp_path / "noise.png").read_bytes()[:8] == PNG
     # One series: no series column, as before.
     assert "series" not in noise_table([c for c in cells if c.labels["demos.lapse"] == 0.0])
+
+
+def test_title_leaves_out_a_key_one_run_lacks(tmp_path):
+    """Two runs compared across code versions: a key only the newer run's config has (None in
+    the older's labels) is not shown as ``= None`` in the older run's title."""
+    from mjsuff.report.results import ReportCell
+
+    older = ReportCell(
+        {"demos.lapse": None, "candidates": "family"}, [0.1], pd.DataFrame(), "lander", tmp_path
+    )
+    newer = ReportCell({"demos.lapse": 0.2, "candidates": None}, [0.1], pd.DataFrame(), "lander", tmp_path)
+    assert older.title == "lander, candidates = family"
+    assert newer.title == "lander, lapse = 0.2"

@@ -36,13 +36,16 @@ class ReportCell:
     @property
     def title(self) -> str:
         """The scenario's name and up to three labels (a domain's own parameters are implied by
-        its name, and left out when the domains differ)."""
+        its name, and left out when the domains differ; a key this run's config lacks, as an
+        older run's, is left out: the other runs' titles show it)."""
         labels = self.labels
         if "domain.name" in labels:
             labels = {
                 k: v for k, v in labels.items() if not k.startswith("domain.params") and "tolerance" not in k
             }
-        shown = [f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if k != "domain.name"]
+        shown = [
+            f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if k != "domain.name" and v is not None
+        ]
         return ", ".join([self.scenario, *shown[:3]] + (["…"] if len(shown) > 3 else []))
 
 
