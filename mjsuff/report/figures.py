@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from mjsuff.experiment.measures import evaluated_rows, measure_group
-from mjsuff.report.results import ReportCell
+from mjsuff.report.results import ReportCell, label_texts
 
 COLOURS = {"nevd": "#1f77b4", "patience": "#d62728", "validation": "#2ca02c", "piob": "#9467bd"}
 SHADES = {"patience": "Reds", "validation": "Greens"}
@@ -174,7 +174,7 @@ NOISE_KEY = "demos.noise_fraction"
 
 def _series_name(labels: dict[str, Any]) -> str:
     """A cell's labels other than the noise fraction, as text ("" when it has none)."""
-    return ", ".join(f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if k != NOISE_KEY)
+    return ", ".join(label_texts({k: v for k, v in labels.items() if k != NOISE_KEY}))
 
 
 def noise_table(cells: list[ReportCell]) -> pd.DataFrame:

@@ -43,10 +43,14 @@ class ReportCell:
             labels = {
                 k: v for k, v in labels.items() if not k.startswith("domain.params") and "tolerance" not in k
             }
-        shown = [
-            f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if k != "domain.name" and v is not None
-        ]
+        shown = label_texts({k: v for k, v in labels.items() if k != "domain.name"})
         return ", ".join([self.scenario, *shown[:3]] + (["…"] if len(shown) > 3 else []))
+
+
+def label_texts(labels: dict[str, Any]) -> list[str]:
+    """``name = value`` for each label (its key's last part), leaving out keys a run's config
+    lacks (``None``: an older run's; the other runs' labels show them)."""
+    return [f"{k.split('.')[-1]} = {v}" for k, v in labels.items() if v is not None]
 
 
 def _config(directory: Path) -> dict[str, Any]:
