@@ -7,7 +7,8 @@ mean and how often it is at least the truth; with poor demos, that split at each
 poor demo); every rule's F1 and demos needed (the baselines at ``--epsilon``) with CIs and the
 bound rules' accuracy at their stop; how often the end-of-replicate truth was raised. With
 ``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR, replicate by replicate
-(the same instances when both runs share the seed), with a CI; and the share of each replicate's
+(the same instances when both runs share the seed: it checks that every shared check had the
+same pool start and poor flag), with a CI; and the share of each replicate's
 checks whose nEVD bound is at least the truth, this run against OTHER_RUN_DIR (Wilcoxon
 signed-rank test over replicates), and, per nEVD threshold, whether the bound held at the rule's
 stop (exact McNemar test on the replicates where the runs disagree).
@@ -151,6 +152,24 @@ def truth_raised(steps: pd.DataFrame) -> str:
     )
 
 
+def same_schedule(steps: pd.DataFrame, other: pd.DataFrame) -> str:
+    """Whether the two runs saw the same demos: per replicate both runs share, the pool start and
+    the poor flag of every check both ran (the nEVD rule's first threshold runs every check)."""
+    keys = ["replicate", "step"]
+    a = nevd_checks(steps).set_index(keys)[["start", "poor_demo"]]
+    b = nevd_checks(other).set_index(keys)[["start", "poor_demo"]]
+    both = a.index.intersection(b.index)
+    differs = (a.loc[both] != b.loc[both]).any(axis=1)
+    reps = both.get_level_values("replicate").unique()
+    bad = sorted(set(differs[differs].index.get_level_values("replicate")))
+    return (
+        f"Same demo schedule (pool start and poor flag at every shared check): "
+        f"{len(reps) - len(bad)} of {len(reps)} shared replicates, {len(both)} checks"
+        + (f"; differs in replicates {bad}" if bad else "")
+        + ".\n"
+    )
+
+
 def paired(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
     text = (
         "| rule | ε | demos needed, this − other (mean, 95% CI) | replicates |\n| --- | --- | --- | --- |\n"
@@ -218,6 +237,7 @@ def main() -> None:
     print(truth_raised(steps))
     if args.paired:
         other = load(args.paired)
+        print(same_schedule(steps, other))
         print(paired(steps, other, args.epsilon))
         print(paired_coverage(steps, other))
 
