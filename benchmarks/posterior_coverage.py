@@ -55,7 +55,8 @@ def likelihood_demo(domain, demo: Demo, beta: float, rng: np.random.Generator) -
     phi = candidates[pick]
     chosen = Demo(start=demo.start, data={"features": phi})
     key = np.int64(demo.start).tobytes() + phi.tobytes()
-    domain._candidates[key] = np.vstack([phi[None], np.delete(candidates, pick, axis=0)])
+    # The chosen demo keeps the same set (itself first): CandidateSets' cache, keyed as it keys it.
+    domain.candidate_sets._sets[key] = np.vstack([phi[None], np.delete(candidates, pick, axis=0)])
     return chosen
 
 

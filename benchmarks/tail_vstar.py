@@ -84,7 +84,7 @@ def measure(
     learner = v_star[samples, starts]
     scale = np.maximum(reference, learner) - np.einsum("nk,nk->n", w[samples], mu_rand[starts])
     gap = np.maximum(reference - learner, 0.0) / scale
-    refined = [domain._refined[int(s)] for s in starts]
+    refined = [domain.vstar.refined[int(s)] for s in starts]
     cos = [(r @ w[i]).max() for r, i in zip(refined, samples, strict=True) if len(r)]
     if cos:
         print(
