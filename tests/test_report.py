@@ -214,3 +214,22 @@ def test_title_leaves_out_a_key_one_run_lacks(tmp_path):
     newer = ReportCell({"demos.lapse": 0.2, "candidates": None}, [0.1], pd.DataFrame(), "lander", tmp_path)
     assert older.title == "lander, candidates = family"
     assert newer.title == "lander, lapse = 0.2"
+
+
+def test_a_key_an_older_run_lacks_shows_its_default(sweep_run, tmp_path):
+    """An older run (its config has no ``demos.lapse``: it ran before the key existed) beside a
+    newer one with lapse 0.2: the older is labelled with the default it ran with, lapse = 0.0,
+    not left unlabelled (stop 43: a figure's left panel did not say which lapse it had)."""
+    import tomllib
+
+    import tomli_w
+
+    cell = next(p.parent for p in sorted(sweep_run.glob("cells/*/steps.parquet")))
+    older, newer = tmp_path / "older", tmp_path / "newer"
+    for directory, edit in ((older, lambda d: d.pop("lapse")), (newer, lambda d: d.update(lapse=0.2))):
+        shutil.copytree(cell, directory)
+        config = tomllib.loads((directory / "config.toml").read_text())
+        edit(config["demos"])
+        (directory / "config.toml").write_text(tomli_w.dumps(config))
+    labelled = {c.directory.name: c.labels for c in load_cells([older, newer])}
+    assert labelled == {"older": {"demos.lapse": 0.0}, "newer": {"demos.lapse": 0.2}}

@@ -218,6 +218,25 @@ def flat_keys(data: Any, prefix: str = "") -> dict[str, Any]:
     return {prefix.rstrip("."): json.dumps(data) if isinstance(data, list) else data}
 
 
+def scenario_default(key: str) -> Any:
+    """The default of a dotted scenario setting outside the domain's own parameters (e.g.
+    ``demos.lapse`` -> 0.0); ``None`` when it has none or is not a single setting. A key added to
+    the scenario defaults to the behaviour before it existed, so this is also what an older run
+    that lacks it ran with."""
+    model: Any = Scenario
+    *parents, last = key.split(".")
+    for part in parents:
+        field = model.model_fields.get(part)
+        section = None if field is None else field.annotation
+        if not (isinstance(section, type) and issubclass(section, BaseModel)):
+            return None
+        model = section
+    field = model.model_fields.get(last)
+    if field is None or field.is_required() or field.default_factory is not None:
+        return None
+    return None if isinstance(field.default, BaseModel) else field.default
+
+
 _UNSWEEPABLE = {"name", "seed", "replicates", "sweep"}
 
 

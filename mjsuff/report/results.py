@@ -16,7 +16,7 @@ from typing import Any
 import pandas as pd
 
 from mjsuff.errors import MjsuffError
-from mjsuff.experiment.scenario import flat_keys
+from mjsuff.experiment.scenario import flat_keys, scenario_default
 
 
 class ReportError(MjsuffError, ValueError):
@@ -118,9 +118,16 @@ def _sweep_cells(top: Path) -> list[ReportCell]:
     return cells
 
 
+def _flat_default(key: str) -> Any:
+    """A setting's default as ``flat_keys`` writes its value (a list as its JSON text)."""
+    default = scenario_default(key)
+    return flat_keys({key: default})[key] if isinstance(default, list) else default
+
+
 def load_cells(directories: list[Path]) -> list[ReportCell]:
     """The cells of one run or sweep directory, or of several run directories (labelled by the
-    scenario keys in which they differ)."""
+    scenario keys in which they differ; a key an older run's config lacks shows its default, the
+    behaviour before the key existed, or is left out when it has none)."""
     if not directories:
         raise ReportError("report: name at least one run directory")
     if len(directories) == 1 and (directories[0] / "sweep.json").is_file():
@@ -134,6 +141,12 @@ def load_cells(directories: list[Path]) -> list[ReportCell]:
     ]
     differing = sorted({k for f in flat for k in f if any(g.get(k) != f.get(k) for g in flat)})
     return [
-        ReportCell({k: f.get(k) for k in differing}, _thresholds(c), _steps(d), c.get("name", d.name), d)
+        ReportCell(
+            {k: f[k] if k in f else _flat_default(k) for k in differing},
+            _thresholds(c),
+            _steps(d),
+            c.get("name", d.name),
+            d,
+        )
         for d, c, f in zip(directories, configs, flat, strict=True)
     ]
