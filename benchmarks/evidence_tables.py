@@ -8,7 +8,8 @@ poor demo); every rule's F1 and demos needed (the baselines at ``--epsilon``) wi
 bound rules' accuracy at their stop; how often the end-of-replicate truth was raised. With
 ``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR, replicate by replicate
 (the same instances when both runs share the seed: it checks that every shared check had the
-same pool start and poor flag), with a CI; and the share of each replicate's
+same pool start and poor flag), with a CI; the nEVD bound and π_MAP's true nEVD here minus there
+at each shared check (per count of demos, and per replicate); and the share of each replicate's
 checks whose nEVD bound is at least the truth, this run against OTHER_RUN_DIR (Wilcoxon
 signed-rank test over replicates), and, per nEVD threshold, whether the bound held at the rule's
 stop (exact McNemar test on the replicates where the runs disagree).
@@ -187,6 +188,38 @@ def paired(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
     return text
 
 
+def paired_bound(steps: pd.DataFrame, other: pd.DataFrame) -> str:
+    """Per count of demos, the nEVD bound and π_MAP's true nEVD here minus there at the same
+    check (the same replicate and demo count; a CI over replicates); then each replicate's mean
+    difference over the checks both ran, one observation per replicate."""
+    keys = ["replicate", "step"]
+    a = nevd_checks(steps).set_index(keys)[["bound", "true_nevd"]]
+    b = nevd_checks(other).set_index(keys)[["bound", "true_nevd"]]
+    both = a.index.intersection(b.index)
+    diff = (a.loc[both] - b.loc[both]).reset_index()
+    text = (
+        "| demos | bound, here − there (mean, 95% CI) | true nEVD of π_MAP, here − there | replicates |\n"
+        "| --- | --- | --- | --- |\n"
+    )
+    for step, g in diff.groupby("step"):
+        bound, truth = g["bound"].to_numpy(float), g["true_nevd"].to_numpy(float)
+        (bl, bh), (tl, th) = ci(bound), ci(truth)
+        text += (
+            f"| {step} | {bound.mean():+.4f} ({bl:+.4f} to {bh:+.4f}) | "
+            f"{truth.mean():+.4f} ({tl:+.4f} to {th:+.4f}) | {len(g)} |\n"
+        )
+    per_rep = diff.groupby("replicate")[["bound", "true_nevd"]].mean()
+    bound, truth = per_rep["bound"].to_numpy(float), per_rep["true_nevd"].to_numpy(float)
+    (bl, bh), (tl, th) = ci(bound), ci(truth)
+    higher = int(np.sum(diff["bound"] > 0))
+    lower = int(np.sum(diff["bound"] < 0))
+    return text + (
+        f"\nPer replicate (mean over its checks): bound {bound.mean():+.4f} ({bl:+.4f} to {bh:+.4f}), "
+        f"true nEVD {truth.mean():+.4f} ({tl:+.4f} to {th:+.4f}) over {len(per_rep)} replicates; "
+        f"the bound higher here at {higher} of {len(diff)} checks, lower at {lower}.\n"
+    )
+
+
 def paired_coverage(steps: pd.DataFrame, other: pd.DataFrame) -> str:
     """Per replicate, the share of its nEVD checks with bound ≥ truth, this run against ``other``;
     and per nEVD threshold, bound ≥ truth at the rule's stop (one observation per replicate)."""
@@ -239,6 +272,7 @@ def main() -> None:
         other = load(args.paired)
         print(same_schedule(steps, other))
         print(paired(steps, other, args.epsilon))
+        print(paired_bound(steps, other))
         print(paired_coverage(steps, other))
 
 
