@@ -159,7 +159,8 @@ def bound_vs_demos(cells: list[ReportCell], path: Path) -> Path:
         c = bound_curve(cell)
         _band(ax, c["step"], c["bound"], c["bound_sem"], COLOURS["nevd"], "α-VaR bound")
         _band(ax, c["step"], c["truth"], c["truth_sem"], "black", "true nEVD of π_MAP", "--")
-        ax.set(xlabel="demonstrations", ylabel="nEVD", title=textwrap.fill(cell.title, 48), ylim=(0, None))
+        ax.set(xlabel="demonstrations", ylabel="nEVD", ylim=(0, None))
+        ax.set_title(textwrap.fill(cell.title, 44), fontsize=10)  # fits a 4-inch panel
         ax.legend(fontsize=8)
     for ax in list(axes.flat)[n:]:
         ax.axis("off")
