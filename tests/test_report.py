@@ -4,10 +4,12 @@ definitions, clear errors for directories that are not runs."""
 import math
 import re
 import shutil
+import tomllib
 
 import numpy as np
 import pandas as pd
 import pytest
+import tomli_w
 from scipy import stats
 
 from mjsuff.cli import main
@@ -220,10 +222,6 @@ def test_a_key_an_older_run_lacks_shows_its_default(sweep_run, tmp_path):
     """An older run (its config has no ``demos.lapse``: it ran before the key existed) beside a
     newer one with lapse 0.2: the older is labelled with the default it ran with, lapse = 0.0,
     not left unlabelled (stop 43: a figure's left panel did not say which lapse it had)."""
-    import tomllib
-
-    import tomli_w
-
     cell = next(p.parent for p in sorted(sweep_run.glob("cells/*/steps.parquet")))
     older, newer = tmp_path / "older", tmp_path / "newer"
     for directory, edit in ((older, lambda d: d.pop("lapse")), (newer, lambda d: d.update(lapse=0.2))):

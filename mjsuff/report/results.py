@@ -120,8 +120,7 @@ def _sweep_cells(top: Path) -> list[ReportCell]:
 
 def _flat_default(key: str) -> Any:
     """A setting's default as ``flat_keys`` writes its value (a list as its JSON text)."""
-    default = scenario_default(key)
-    return flat_keys({key: default})[key] if isinstance(default, list) else default
+    return flat_keys({key: scenario_default(key)})[key]
 
 
 def load_cells(directories: list[Path]) -> list[ReportCell]:
