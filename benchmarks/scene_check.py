@@ -9,7 +9,7 @@ planning π_MAP and ``V*``; then a second check after an 11th demo (the loop's w
 ``V*`` refinement skips directions already refined). Building the instance and the expert's demos
 are timed apart (they are not part of a check).
 
-    python benchmarks/scene_check.py [--scenes lava_reacher lander] [--starts 16]
+    python benchmarks/scene_check.py [--scenes lava_reacher lander] [--starts 16] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -71,9 +71,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
     parser.add_argument("--starts", type=int, default=16)
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="scenario override, e.g. domain.params.planning.plan_samples=5 (repeatable)",
+    )
     args = parser.parse_args()
     for name in args.scenes:
-        scenario = load_scenario(SCENARIOS / f"{name}.toml", [f"domain.params.eval_starts={args.starts}"])
+        scenario = load_scenario(
+            SCENARIOS / f"{name}.toml", [f"domain.params.eval_starts={args.starts}", *args.set]
+        )
         with threadpool_limits(limits=1):
             t0 = time.perf_counter()
             domain = make_instance(scenario, 0)
@@ -87,7 +96,7 @@ def main() -> None:
             second = check(domain, demos, scenario, np.random.default_rng(3))
         print(
             f"\n{name}: {args.starts} evaluation starts, {NUM_DEMOS} demos, "
-            f"{scenario.posterior.num_samples} samples"
+            f"{scenario.posterior.num_samples} samples" + (f"; {' '.join(args.set)}" if args.set else "")
         )
         print(
             f"  instance {build:.1f} s (random trajectories and seed plans); "
