@@ -153,14 +153,23 @@ def truth_raised(steps: pd.DataFrame) -> str:
     )
 
 
+def shared_checks(
+    steps: pd.DataFrame, other: pd.DataFrame, columns: list[str]
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``columns`` of the nEVD checks both runs ran, indexed alike by (replicate, step)."""
+    keys = ["replicate", "step"]
+    a = nevd_checks(steps).set_index(keys)[columns]
+    b = nevd_checks(other).set_index(keys)[columns]
+    both = a.index.intersection(b.index)
+    return a.loc[both], b.loc[both]
+
+
 def same_schedule(steps: pd.DataFrame, other: pd.DataFrame) -> str:
     """Whether the two runs saw the same demos: per replicate both runs share, the pool start and
     the poor flag of every check both ran (the nEVD rule's first threshold runs every check)."""
-    keys = ["replicate", "step"]
-    a = nevd_checks(steps).set_index(keys)[["start", "poor_demo"]]
-    b = nevd_checks(other).set_index(keys)[["start", "poor_demo"]]
-    both = a.index.intersection(b.index)
-    differs = (a.loc[both] != b.loc[both]).any(axis=1)
+    a, b = shared_checks(steps, other, ["start", "poor_demo"])
+    both = a.index
+    differs = (a != b).any(axis=1)
     reps = both.get_level_values("replicate").unique()
     bad = sorted(set(differs[differs].index.get_level_values("replicate")))
     return (
@@ -192,11 +201,8 @@ def paired_bound(steps: pd.DataFrame, other: pd.DataFrame) -> str:
     """Per count of demos, the nEVD bound and π_MAP's true nEVD here minus there at the same
     check (the same replicate and demo count; a CI over replicates); then each replicate's mean
     difference over the checks both ran, one observation per replicate."""
-    keys = ["replicate", "step"]
-    a = nevd_checks(steps).set_index(keys)[["bound", "true_nevd"]]
-    b = nevd_checks(other).set_index(keys)[["bound", "true_nevd"]]
-    both = a.index.intersection(b.index)
-    diff = (a.loc[both] - b.loc[both]).reset_index()
+    a, b = shared_checks(steps, other, ["bound", "true_nevd"])
+    diff = (a - b).reset_index()
     text = (
         "| demos | bound, here − there (mean, 95% CI) | true nEVD of π_MAP, here − there | replicates |\n"
         "| --- | --- | --- | --- |\n"

@@ -36,8 +36,8 @@ class ReportCell:
     @property
     def title(self) -> str:
         """The scenario's name and up to three labels (a domain's own parameters are implied by
-        its name, and left out when the domains differ; a key this run's config lacks, as an
-        older run's, is left out: the other runs' titles show it)."""
+        its name, and left out when the domains differ; a key this run's config lacks and that has
+        no default, as an older run's scene key, is left out: the other runs' titles show it)."""
         labels = self.labels
         if "domain.name" in labels:
             labels = {
