@@ -12,6 +12,9 @@ scene without sides counts every start as seen.
 Use design seeds only (not a seed reported as evidence): this is how a scene is designed.
 
     python benchmarks/first_demo.py lava_reacher --seed 2 --replicates 10
+
+A candidate design is measured with ``--constant NAME=VALUE`` (``scene_constants.py``), e.g.
+``--constant ZONE_RADII=[1.8,2.3]`` on the lander.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from scene_constants import add_argument, set_scene_constants
 from threadpoolctl import threadpool_limits
 
 from mjsuff.experiment.replicate import run_replicate
@@ -41,8 +45,11 @@ class _LastStep:
         self.demo, self.map_weights, self.map_policy, self.rows = demo, map_weights, map_policy, rows
 
 
-def run_one(scene: str, seed: int, replicate: int, overrides: list[str]) -> dict:
+def run_one(
+    scene: str, seed: int, replicate: int, overrides: list[str], constants: list[tuple[str, object]]
+) -> dict:
     """One replicate with one demo: π_MAP's regret per evaluation start, split by side."""
+    set_scene_constants(scene, constants)
     scenario = load_scenario(
         ROOT / "scenarios" / f"{scene}.toml", [f"seed={seed}", *overrides, "demos.max_demos=1"]
     )
@@ -77,14 +84,17 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--json", type=Path, help="also write the rows to this file")
+    add_argument(parser)
     args = parser.parse_args()
+    set_scene_constants(args.scene, args.constant)  # here too: an unknown name fails at once
     t0 = time.perf_counter()
-    jobs = [(args.scene, args.seed, r, args.set) for r in range(args.replicates)]
+    jobs = [(args.scene, args.seed, r, args.set, args.constant) for r in range(args.replicates)]
     with ProcessPoolExecutor(args.workers) as pool:
         rows = list(pool.map(run_one, *zip(*jobs, strict=True)))
     print(
         f"{args.scene}, seed {args.seed}, {args.replicates} replicates, one demo "
         f"({time.perf_counter() - t0:.0f} s)"
+        + "".join(f", {name} = {value}" for name, value in args.constant)
     )
     print("| replicate | w* | MAP weights | true nEVD | bound | regret, seen side | unseen side |")
     print("| --- | --- | --- | --- | --- | --- | --- |")

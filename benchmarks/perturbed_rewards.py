@@ -6,6 +6,8 @@ floor under every π_MAP), w* with one feature's weight zeroed, and random all-n
 Demos can only matter where wrong weights produce different motions.
 
     python benchmarks/perturbed_rewards.py lava_reacher --seeds 1 2 3
+
+A candidate design is measured with ``--constant NAME=VALUE`` (``scene_constants.py``).
 """
 
 import argparse
@@ -13,6 +15,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from scene_constants import add_argument, set_scene_constants
 
 from mjsuff.experiment.replicate import make_instance
 from mjsuff.experiment.scenario import load_scenario
@@ -48,7 +51,9 @@ def main() -> None:
     parser.add_argument("scene", choices=["lava_reacher", "lander"])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--random", type=int, default=4, help="random all-negative rewards")
+    add_argument(parser)
     args = parser.parse_args()
+    set_scene_constants(args.scene, args.constant)
     for seed in args.seeds:
         t = time.perf_counter()
         rows = measure(args.scene, seed, args.random)

@@ -11,10 +11,12 @@ engine's thrust.
 Features (k = 6), from the simulated states and touch sensors:
 
 * ``landing_error`` — at the end of the horizon, horizontal distance to the pad centre plus height
-  above resting on the ground, divided by 5 m; range [0, ~6] (random controls can fly far).
-* ``impact`` — vertical speed at the first step either foot touches the ground, divided by 5 m/s;
-  if the craft has not touched down by the end, the speed it would hit the ground with if the
-  engine were cut then (``√(v_z² + 2 g h)``), so hovering does not dodge it; range [0, ~3].
+  above resting on the ground, divided by ``LANDING_SCALE`` (5 m); range [0, ~6] (random controls
+  can fly far).
+* ``impact`` — vertical speed at the first step either foot touches the ground; if the craft
+  has not touched down by the end, the speed it would hit the ground with if the engine were cut
+  then (``√(v_z² + 2 g h)``), so hovering does not dodge it; divided by ``IMPACT_SCALE``
+  (5 m/s); range [0, ~3].
 * ``fuel`` — mean thrust over the horizon as a share of the engine's 40 N; range [0, 1].
 * ``tilt`` — mean |pitch| (wrapped to [0, π]) divided by π/2; range [0, 2].
 * ``habitat`` — the craft's penetration into the keep-out hemisphere around the habitat (on the
@@ -56,6 +58,9 @@ FEATURE_NAMES = ("landing_error", "impact", "fuel", "tilt", "habitat", "array")
 ZONES = ("habitat", "array")
 #: A zone's mean penetration (a share of its radius) that counts as 1.
 ZONE_SCALE = 0.05
+#: Touchdown speed (m/s) and landing error (m) that count as 1.
+IMPACT_SCALE = 5.0
+LANDING_SCALE = 5.0
 #: Range of a zone's radius (m) and of its centre's distance from the pad's centre (m).
 ZONE_RADII = (1.1, 1.4)
 ZONE_OFFSETS = (1.2, 1.5)
@@ -172,14 +177,14 @@ class Lander(Scene):
         # Speed just before contact (the step before the first touching step).
         rows = np.flatnonzero(touched)
         before = np.clip(first[rows] - 1, 0, None)
-        out[rows, first[rows], 1] = np.abs(rollouts.qvel[rows, before, 1]) / 5.0
+        out[rows, first[rows], 1] = np.abs(rollouts.qvel[rows, before, 1]) / IMPACT_SCALE
         if t == steps:  # the rollout is whole: the last step's terms
             x_end, z_end = rollouts.qpos[:, -1, 0], rollouts.qpos[:, -1, 1]
             height = np.clip(z_end - REST_HEIGHT, 0.0, None)
-            out[:, -1, 0] = (np.abs(x_end - self.pad_x) + height) / 5.0
+            out[:, -1, 0] = (np.abs(x_end - self.pad_x) + height) / LANDING_SCALE
             gravity = -self.model.opt.gravity[2]
             vz_cut = np.sqrt(rollouts.qvel[:, -1, 1] ** 2 + 2 * gravity * height)
-            out[~touched, -1, 1] = vz_cut[~touched] / 5.0
+            out[~touched, -1, 1] = vz_cut[~touched] / IMPACT_SCALE
         return out
 
     def baseline_knots(self) -> np.ndarray:

@@ -1,0 +1,46 @@
+"""Design probes: override a scene module's constants (``--constant NAME=VALUE``) in a benchmark.
+
+A scene's design lives in its module's constants (``mjsuff.scenes.lander.ZONE_RADII``,
+``IMPACT_SCALE``, …). A benchmark given ``--constant ZONE_RADII=[1.8,2.3]`` sets that constant
+before it builds an instance (in each worker process), so a candidate design is measured by the
+same code as the shipped one, without editing the package. For design seeds only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+
+
+def parse_constant(text: str) -> tuple[str, object]:
+    """``NAME=VALUE`` with a JSON value (a list becomes a tuple) -> ``(NAME, value)``."""
+    name, sep, value = text.partition("=")
+    if not sep or not name.isidentifier() or not name.isupper():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE with an upper-case NAME, got {text!r}")
+    try:
+        parsed = json.loads(value)
+    except json.JSONDecodeError as err:
+        raise argparse.ArgumentTypeError(f"{name}: expected a JSON value, got {value!r} ({err})") from None
+    return name, tuple(parsed) if isinstance(parsed, list) else parsed
+
+
+def set_scene_constants(scene: str, constants: list[tuple[str, object]]) -> None:
+    """Set each ``(NAME, value)`` on ``mjsuff.scenes.<scene>``; an unknown NAME is an error."""
+    module = importlib.import_module(f"mjsuff.scenes.{scene}")
+    for name, value in constants:
+        if not hasattr(module, name):
+            raise SystemExit(f"--constant {name}: mjsuff.scenes.{scene} has no constant {name}")
+        setattr(module, name, value)
+
+
+def add_argument(parser: argparse.ArgumentParser) -> None:
+    """``--constant NAME=VALUE`` (repeatable) on ``parser``."""
+    parser.add_argument(
+        "--constant",
+        action="append",
+        default=[],
+        type=parse_constant,
+        metavar="NAME=VALUE",
+        help="override a constant of the scene's module (JSON value), for design probes",
+    )
