@@ -24,25 +24,37 @@ from mjsuff.sphere import random_unit_vectors
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def measure(name: str, seed: int, random_rewards: int) -> dict[str, float]:
+def measure(name: str, seed: int, random_rewards: int, features: bool = False) -> dict[str, float]:
+    """The true nEVD of each perturbed reward's plan; with ``features``, also print each plan's
+    (and the random policy's) feature expectations per evaluation start."""
     scenario = load_scenario(ROOT / "scenarios" / f"{name}.toml", [f"seed={seed}"])
     domain = make_instance(scenario, 0)
     w = domain.true_weights
     v_star = domain.true_optimal_start_values()
     gap = np.mean(v_star - domain.random_start_feature_expectations() @ w)
 
-    def nevd(policy: np.ndarray) -> float:
-        v = domain.start_feature_expectations(policy) @ w
+    names = domain.scene.feature_names
+    if features:
+        print(f"seed {seed}: w* {np.round(w, 3).tolist()}; per evaluation start, {', '.join(names)}")
+        print(f"  random policy:\n{np.round(domain.random_start_feature_expectations(), 3)}")
+
+    def nevd(policy: np.ndarray, label: str) -> float:
+        mu = domain.start_feature_expectations(policy)
+        v = mu @ w
+        if features:
+            regret = (np.maximum(v_star, v) - v) / gap
+            print(f"  {label}: regret per start {np.round(regret, 3).tolist()}\n{np.round(mu, 3)}")
         return float(np.mean(np.maximum(v_star, v) - v) / gap)
 
-    rows = {"w* plan": nevd(domain.plan(w))}
-    for i, feature in enumerate(domain.scene.feature_names):
+    rows = {"w* plan": nevd(domain.plan(w), "w* plan")}
+    for i, feature in enumerate(names):
         zeroed = w.copy()
         zeroed[i] = 0.0
-        rows[f"{feature} zeroed"] = nevd(domain.plan(zeroed / np.linalg.norm(zeroed)))
+        label = f"{feature} zeroed"
+        rows[label] = nevd(domain.plan(zeroed / np.linalg.norm(zeroed)), label)
     draws = -np.abs(random_unit_vectors(np.random.default_rng(seed + 7), random_rewards, len(w)))
     for j, other in enumerate(draws):
-        rows[f"random {j}"] = nevd(domain.plan(other))
+        rows[f"random {j}"] = nevd(domain.plan(other), f"random {j}")
     return rows
 
 
@@ -51,12 +63,15 @@ def main() -> None:
     parser.add_argument("scene", choices=["lava_reacher", "lander"])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--random", type=int, default=4, help="random all-negative rewards")
+    parser.add_argument(
+        "--features", action="store_true", help="also print every plan's features per evaluation start"
+    )
     add_argument(parser)
     args = parser.parse_args()
     set_scene_constants(args.scene, args.constant)
     for seed in args.seeds:
         t = time.perf_counter()
-        rows = measure(args.scene, seed, args.random)
+        rows = measure(args.scene, seed, args.random, args.features)
         print(
             f"{args.scene} seed {seed} ({time.perf_counter() - t:.0f} s): "
             + ", ".join(f"{k} {v:.3f}" for k, v in rows.items()),
