@@ -4,6 +4,10 @@ A scene's design lives in its module's constants (``mjsuff.scenes.lander.ZONE_RA
 ``IMPACT_SCALE``, …). A benchmark given ``--constant ZONE_RADII=[1.8,2.3]`` sets that constant
 before it builds an instance (in each worker process), so a candidate design is measured by the
 same code as the shipped one, without editing the package. For design seeds only.
+
+Only the scene module's own reads see the override: a module that imported the name by value
+keeps the shipped one (the lander's expert imports ``REST_HEIGHT`` and ``TOUCH_THRESHOLD``), so
+override only constants the scene module alone reads (``grep`` before trusting a probe).
 """
 
 from __future__ import annotations
