@@ -81,6 +81,7 @@ def main() -> None:
     parser.add_argument("scene", choices=["lava_reacher", "lander"])
     parser.add_argument("--seed", type=int, required=True, help="a design seed")
     parser.add_argument("--replicates", type=int, default=10)
+    parser.add_argument("--first", type=int, default=0, help="index of the first replicate")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--json", type=Path, help="also write the rows to this file")
@@ -88,11 +89,15 @@ def main() -> None:
     args = parser.parse_args()
     set_scene_constants(args.scene, args.constant)  # here too: an unknown name fails at once
     t0 = time.perf_counter()
-    jobs = [(args.scene, args.seed, r, args.set, args.constant) for r in range(args.replicates)]
+    jobs = [
+        (args.scene, args.seed, r, args.set, args.constant)
+        for r in range(args.first, args.first + args.replicates)
+    ]
     with ProcessPoolExecutor(args.workers) as pool:
         rows = list(pool.map(run_one, *zip(*jobs, strict=True)))
     print(
-        f"{args.scene}, seed {args.seed}, {args.replicates} replicates, one demo "
+        f"{args.scene}, seed {args.seed}, replicates {args.first}–{args.first + args.replicates - 1}, "
+        "one demo "
         f"({time.perf_counter() - t0:.0f} s)"
         + "".join(f", {name} = {value}" for name, value in args.constant)
     )

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from mjsuff.domains import REGISTRY
+from mjsuff.scenes import lander
 from mjsuff.scenes.lander import REST_HEIGHT, ZONE_SCALE, Lander, LanderParams
 from mjsuff.scenes.lava_reacher import (
     DISTANCE_SCALE,
@@ -169,6 +170,21 @@ def test_lander_zone_feature_only_inside_its_zone(zone):
         _, features = scene.simulate(np.array([[x, height, 0.0]]), hover)
         assert (features[0, 4 + zone] > 1.0) == inside
         assert features[0, 5 - zone] == 0.0  # the zones are apart: never in both
+
+
+@pytest.mark.parametrize("shape", ["hemisphere", "column"])
+def test_lander_zone_shape_column_counts_at_any_height_over_its_width(monkeypatch, shape):
+    monkeypatch.setattr(lander, "ZONE_SHAPE", shape)
+    scene = make("lander", 5)
+    x, r = scene.zone_x[0], scene.zone_radii[0]
+    reach = np.abs(scene.zone_x - scene.pad_x)
+    if shape == "hemisphere":
+        reach = np.hypot(reach, REST_HEIGHT)
+    assert (reach - scene.zone_radii >= 0.15 - 1e-12).all()  # resting on the pad stays clear
+    hover = np.zeros((1, *scene.spline.shape))  # holds its height
+    for dx, inside in ((0.0, shape == "column"), (r + 0.3, False)):  # 5 m up: over a hemisphere
+        _, features = scene.simulate(np.array([[x + dx, 5.0, 0.0]]), hover)
+        assert (features[0, 4] > 1.0) == inside
 
 
 def test_lander_starts_alternate_sides_and_each_side_faces_its_own_zone():

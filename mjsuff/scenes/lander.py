@@ -27,6 +27,11 @@ Features (k = 6), from the simulated states and touch sensors:
   goes over it (slower, dearer in fuel) and one that ignores it cuts through.
 * ``array`` — the same for the solar array's zone, to the pad's left.
 
+A zone's shape is ``ZONE_SHAPE``: the shipped ``"hemisphere"`` above, or ``"column"`` (a design
+under study, issue #17: no overflight of the asset at any height, ``max(0, r − |x − c|) / r``
+with ``r`` its half-width; the MJCF's zone geoms stay hemispheres, visual only). A column stands
+between a start and the pad, so a reward decides between crossing it and landing short.
+
 The scales make the features comparable where policies differ, so that weights drawn uniformly
 from the all-negative orthant trade them off: cut through a zone (a quick, cheap descent) or fly
 over it (holding height: more fuel, a later and often harder touchdown), and how softly to land.
@@ -58,6 +63,8 @@ FEATURE_NAMES = ("landing_error", "impact", "fuel", "tilt", "habitat", "array")
 ZONES = ("habitat", "array")
 #: A zone's mean penetration (a share of its radius) that counts as 1.
 ZONE_SCALE = 0.05
+#: "hemisphere" (on the ground, radius r) or "column" (|x − c| < r at any height; module docs).
+ZONE_SHAPE = "hemisphere"
 #: Touchdown speed (m/s) and landing error (m) that count as 1.
 IMPACT_SCALE = 5.0
 LANDING_SCALE = 5.0
@@ -119,7 +126,8 @@ class Lander(Scene):
         offsets = rng.uniform(*ZONE_OFFSETS, 2)
         self.zone_x = self.pad_x + np.array([1.0, -1.0]) * offsets
         # The craft resting on the pad stays 0.15 m outside both zones.
-        clear = np.sqrt(offsets**2 + REST_HEIGHT**2) - 0.15
+        reach = np.sqrt(offsets**2 + REST_HEIGHT**2) if ZONE_SHAPE == "hemisphere" else offsets
+        clear = reach - 0.15
         self.zone_radii = np.minimum(rng.uniform(*ZONE_RADII, 2), clear)
         for name, x, r in zip(ZONES, self.zone_x, self.zone_radii, strict=True):
             self.model.geom(f"{name}_zone").pos[0] = x
@@ -171,7 +179,9 @@ class Lander(Scene):
         pitch = np.angle(np.exp(1j * rollouts.qpos[:, :, 2]))  # wrapped to [-π, π]
         out[:, :, 3] = np.abs(pitch) / (np.pi / 2) / steps
         for j, (x, r) in enumerate(zip(self.zone_x, self.zone_radii, strict=True)):
-            distance = np.hypot(rollouts.qpos[:, :, 0] - x, rollouts.qpos[:, :, 1])
+            distance = np.abs(rollouts.qpos[:, :, 0] - x)
+            if ZONE_SHAPE == "hemisphere":
+                distance = np.hypot(distance, rollouts.qpos[:, :, 1])
             out[:, :, 4 + j] = np.clip(r - distance, 0.0, None) / r / ZONE_SCALE / steps
         touched, first = self.touchdown(rollouts)
         # Speed just before contact (the step before the first touching step).
