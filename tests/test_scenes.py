@@ -187,6 +187,12 @@ def test_lander_zone_shape_column_counts_at_any_height_over_its_width(monkeypatc
         assert (features[0, 4] > 1.0) == inside
 
 
+def test_lander_unknown_zone_shape_is_a_clear_error(monkeypatch):
+    monkeypatch.setattr(lander, "ZONE_SHAPE", "cylinder")
+    with pytest.raises(ValueError, match="ZONE_SHAPE: expected"):
+        make("lander", 5)
+
+
 def test_lander_starts_alternate_sides_and_each_side_faces_its_own_zone():
     scene = make("lander", 2, pool_starts=10)
     assert scene.start_sides.tolist() == [0, 1, 0, 1] and sorted(scene.pool_sides) == [0] * 5 + [1] * 5

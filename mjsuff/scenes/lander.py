@@ -118,6 +118,8 @@ class Lander(Scene):
     )
 
     def __init__(self, params: LanderParams, rng: np.random.Generator, threads: int | None = None) -> None:
+        if ZONE_SHAPE not in ("hemisphere", "column"):
+            raise ValueError(f'ZONE_SHAPE: expected "hemisphere" or "column", got {ZONE_SHAPE!r}')
         self.params = params
         self.model = load_model("lander.xml")
         self.pad_x = float(rng.uniform(-0.5, 0.5))
