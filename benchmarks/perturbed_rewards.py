@@ -41,10 +41,10 @@ def measure(name: str, seed: int, random_rewards: int, features: bool = False) -
     def nevd(policy: np.ndarray, label: str) -> float:
         mu = domain.start_feature_expectations(policy)
         v = mu @ w
+        regret = (np.maximum(v_star, v) - v) / gap
         if features:
-            regret = (np.maximum(v_star, v) - v) / gap
             print(f"  {label}: regret per start {np.round(regret, 3).tolist()}\n{np.round(mu, 3)}")
-        return float(np.mean(np.maximum(v_star, v) - v) / gap)
+        return float(regret.mean())
 
     rows = {"w* plan": nevd(domain.plan(w), "w* plan")}
     for i, feature in enumerate(names):

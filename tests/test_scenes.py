@@ -175,12 +175,13 @@ def test_lander_zone_feature_only_inside_its_zone(zone):
 @pytest.mark.parametrize("shape", ["hemisphere", "column"])
 def test_lander_zone_shape_column_counts_at_any_height_over_its_width(monkeypatch, shape):
     monkeypatch.setattr(lander, "ZONE_SHAPE", shape)
+    monkeypatch.setattr(lander, "ZONE_RADII", (3.0, 3.0))  # wider than allowed: the clearance binds
     scene = make("lander", 5)
     x, r = scene.zone_x[0], scene.zone_radii[0]
     reach = np.abs(scene.zone_x - scene.pad_x)
     if shape == "hemisphere":
         reach = np.hypot(reach, REST_HEIGHT)
-    assert (reach - scene.zone_radii >= 0.15 - 1e-12).all()  # resting on the pad stays clear
+    np.testing.assert_allclose(reach - scene.zone_radii, 0.15)  # resting on the pad: 0.15 m clear
     hover = np.zeros((1, *scene.spline.shape))  # holds its height
     for dx, inside in ((0.0, shape == "column"), (r + 0.3, False)):  # 5 m up: over a hemisphere
         _, features = scene.simulate(np.array([[x + dx, 5.0, 0.0]]), hover)
