@@ -186,6 +186,11 @@ def test_lander_zone_shape_column_counts_at_any_height_over_its_width(monkeypatc
     for dx, inside in ((0.0, shape == "column"), (r + 0.3, False)):  # 5 m up: over a hemisphere
         _, features = scene.simulate(np.array([[x + dx, 5.0, 0.0]]), hover)
         assert (features[0, 4] > 1.0) == inside
+    # The drawn zone (visual only) is the zone the feature counts: its half-width, its shape.
+    geom = scene.model.geom("habitat_zone")
+    assert geom.size[0] == pytest.approx(r)
+    drawn = mujoco.mjtGeom.mjGEOM_BOX if shape == "column" else mujoco.mjtGeom.mjGEOM_SPHERE
+    assert geom.type[0] == drawn
 
 
 def test_lander_unknown_zone_shape_is_a_clear_error(monkeypatch):

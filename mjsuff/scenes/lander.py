@@ -29,8 +29,9 @@ Features (k = 6), from the simulated states and touch sensors:
 
 A zone's shape is ``ZONE_SHAPE``: the shipped ``"hemisphere"`` above, or ``"column"`` (a design
 under study, issue #17: no overflight of the asset at any height, ``max(0, r − |x − c|) / r``
-with ``r`` its half-width; the MJCF's zone geoms stay hemispheres, visual only). A column stands
-between a start and the pad, so a reward decides between crossing it and landing short.
+with ``r`` its half-width; its MJCF geom is redrawn as a box ``COLUMN_HEIGHT`` tall, visual
+only). A column stands between a start and the pad, so a reward decides between crossing it and
+landing short.
 
 The scales make the features comparable where policies differ, so that weights drawn uniformly
 from the all-negative orthant trade them off: cut through a zone (a quick, cheap descent) or fly
@@ -49,6 +50,7 @@ all-negative part of the sphere: every feature is a cost.
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
@@ -65,6 +67,7 @@ ZONES = ("habitat", "array")
 ZONE_SCALE = 0.05
 #: "hemisphere" (on the ground, radius r) or "column" (|x − c| < r at any height; module docs).
 ZONE_SHAPE = "hemisphere"
+COLUMN_HEIGHT = 8.0  # m, how tall a column zone is drawn (its feature has no top)
 #: Touchdown speed (m/s) and landing error (m) that count as 1.
 IMPACT_SCALE = 5.0
 LANDING_SCALE = 5.0
@@ -132,8 +135,14 @@ class Lander(Scene):
         clear = reach - 0.15
         self.zone_radii = np.minimum(rng.uniform(*ZONE_RADII, 2), clear)
         for name, x, r in zip(ZONES, self.zone_x, self.zone_radii, strict=True):
-            self.model.geom(f"{name}_zone").pos[0] = x
-            self.model.geom(f"{name}_zone").size[0] = r
+            zone = self.model.geom(f"{name}_zone")
+            zone.pos[0] = x
+            zone.size[0] = r
+            if ZONE_SHAPE == "column":  # drawn as a box up to COLUMN_HEIGHT (visual only)
+                zone.type = mujoco.mjtGeom.mjGEOM_BOX
+                zone.size[:] = (r, 0.6, COLUMN_HEIGHT / 2)
+                zone.pos[2] = COLUMN_HEIGHT / 2
+                zone.rbound = float(np.linalg.norm(zone.size))
             self.model.geom(name).pos[0] = x
         steps = round(params.horizon / self.model.opt.timestep)
         ctrl = self.model.actuator_ctrlrange
