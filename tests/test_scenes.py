@@ -173,10 +173,9 @@ def test_lander_zone_feature_only_inside_its_zone(zone):
 
 
 @pytest.mark.parametrize("shape", ["hemisphere", "column"])
-def test_lander_zone_shape_column_counts_at_any_height_over_its_width(monkeypatch, shape):
-    monkeypatch.setattr(lander, "ZONE_SHAPE", shape)
-    monkeypatch.setattr(lander, "ZONE_RADII", (3.0, 3.0))  # wider than allowed: the clearance binds
-    scene = make("lander", 5)
+def test_lander_zone_shape_column_counts_at_any_height_over_its_width(shape):
+    # Zones wider than allowed: the clearance binds.
+    scene = make("lander", 5, zone_shape=shape, zone_radii=(3.0, 3.0))
     x, r = scene.zone_x[0], scene.zone_radii[0]
     reach = np.abs(scene.zone_x - scene.pad_x)
     if shape == "hemisphere":
@@ -194,9 +193,28 @@ def test_lander_zone_shape_column_counts_at_any_height_over_its_width(monkeypatc
 
 
 def test_lander_unknown_zone_shape_is_a_clear_error(monkeypatch):
-    monkeypatch.setattr(lander, "ZONE_SHAPE", "cylinder")
+    monkeypatch.setattr(lander, "ZONE_SHAPE", "cylinder")  # a design probe's --constant
     with pytest.raises(ValueError, match="ZONE_SHAPE: expected"):
         make("lander", 5)
+
+
+def test_lander_design_defaults_to_the_module_constants_and_is_set_per_scenario(monkeypatch):
+    shipped = LanderParams()
+    assert (shipped.zone_shape, shipped.zone_radii, shipped.start_offsets) == (
+        lander.ZONE_SHAPE,
+        lander.ZONE_RADII,
+        lander.START_OFFSETS,
+    )
+    monkeypatch.setattr(lander, "START_OFFSETS", (4.0, 4.5))  # resolved on validation
+    assert LanderParams().start_offsets == (4.0, 4.5)
+    # A scenario's TOML arrays are accepted; the starts are drawn from the range set.
+    params = LanderParams.model_validate({"eval_starts": 8, "start_offsets": [2.5, 2.6]})
+    scene = Lander(params, np.random.default_rng(0))
+    assert np.all(
+        (np.abs(scene.starts[:, 0] - scene.pad_x) >= 2.5) & (np.abs(scene.starts[:, 0] - scene.pad_x) <= 2.6)
+    )
+    with pytest.raises(ValueError, match=r"zone_radii: expected 0 < low <= high \(m\)"):
+        LanderParams.model_validate({"zone_radii": [0.6, 0.4]})
 
 
 def test_lander_starts_alternate_sides_and_each_side_faces_its_own_zone():

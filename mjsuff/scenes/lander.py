@@ -27,11 +27,12 @@ Features (k = 6), from the simulated states and touch sensors:
   goes over it (slower, dearer in fuel) and one that ignores it cuts through.
 * ``array`` — the same for the solar array's zone, to the pad's left.
 
-A zone's shape is ``ZONE_SHAPE``: the shipped ``"hemisphere"`` above, or ``"column"`` (a design
-under study, issue #17: no overflight of the asset at any height, ``max(0, r − |x − c|) / r``
-with ``r`` its half-width; its MJCF geom is redrawn as a box ``COLUMN_HEIGHT`` tall, visual
-only). A column stands between a start and the pad, so a reward decides between crossing it and
-landing short.
+A zone's shape is ``zone_shape`` (``LanderParams``; unset, ``ZONE_SHAPE``): the shipped
+``"hemisphere"`` above, or ``"column"`` (a design under study, issue #17: no overflight of the
+asset at any height, ``max(0, r − |x − c|) / r`` with ``r`` its half-width; its MJCF geom is
+redrawn as a box ``COLUMN_HEIGHT`` tall, visual only). A column stands between a start and the
+pad, so a reward decides between crossing it and landing short. ``zone_radii`` and
+``start_offsets`` set the ranges drawn below (unset, ``ZONE_RADII`` and ``START_OFFSETS``).
 
 The scales make the features comparable where policies differ, so that weights drawn uniformly
 from the all-negative orthant trade them off: cut through a zone (a quick, cheap descent) or fly
@@ -49,6 +50,8 @@ all-negative part of the sphere: every feature is a cost.
 """
 
 from __future__ import annotations
+
+from typing import Annotated, Literal
 
 import mujoco
 import numpy as np
@@ -84,14 +87,36 @@ TOUCH_THRESHOLD = 1e-6
 MAX_THRUST = 40.0
 
 
+#: A (low, high) range a scene draws from uniformly (m); TOML arrays are accepted.
+Range = Annotated[tuple[float, float], Field(strict=False)]
+ZoneShape = Literal["hemisphere", "column"]
+
+
 class LanderParams(SceneParams):
-    """Instance parameters of the lander."""
+    """Instance parameters of the lander. The zones' shape and sizes and the starts' distance
+    are the scene's design: unset, they are the module's ``ZONE_SHAPE``, ``ZONE_RADII`` and
+    ``START_OFFSETS`` (resolved on validation, so a resolved scenario says what ran)."""
 
     horizon: float = Field(4.0, gt=0.5, le=20.0, description="trajectory length (s)")
     knots: int = Field(5, ge=2, le=20, description="control knots per actuator")
+    zone_shape: ZoneShape | None = Field(
+        None, description='a keep-out zone: "hemisphere" on the ground or "column" at any height'
+    )
+    zone_radii: Range | None = Field(None, description="range of a zone's radius or half-width (m)")
+    start_offsets: Range | None = Field(
+        None, description="range of a start's horizontal distance from the pad (m)"
+    )
 
     @model_validator(mode="after")
     def _scene_defaults(self) -> LanderParams:
+        self.zone_shape = ZONE_SHAPE if self.zone_shape is None else self.zone_shape
+        if self.zone_shape not in ("hemisphere", "column"):
+            raise ValueError(f'ZONE_SHAPE: expected "hemisphere" or "column", got {self.zone_shape!r}')
+        for name, default in (("zone_radii", ZONE_RADII), ("start_offsets", START_OFFSETS)):
+            low, high = getattr(self, name) or default
+            if not 0.0 < low <= high:
+                raise ValueError(f"{name}: expected 0 < low <= high (m), got ({low}, {high})")
+            setattr(self, name, (float(low), float(high)))
         # Unset budgets become the scene's tested ones, so a resolved scenario says what ran.
         self.planning = self.planning.resolved(
             Lander.planner_config, Lander.refine_config, Lander.seed_config
@@ -121,9 +146,8 @@ class Lander(Scene):
     )
 
     def __init__(self, params: LanderParams, rng: np.random.Generator, threads: int | None = None) -> None:
-        if ZONE_SHAPE not in ("hemisphere", "column"):
-            raise ValueError(f'ZONE_SHAPE: expected "hemisphere" or "column", got {ZONE_SHAPE!r}')
         self.params = params
+        shape = params.zone_shape
         self.model = load_model("lander.xml")
         self.pad_x = float(rng.uniform(-0.5, 0.5))
         self.model.geom("pad").pos[0] = self.pad_x
@@ -131,14 +155,14 @@ class Lander(Scene):
         offsets = rng.uniform(*ZONE_OFFSETS, 2)
         self.zone_x = self.pad_x + np.array([1.0, -1.0]) * offsets
         # The craft resting on the pad stays 0.15 m outside both zones.
-        reach = np.sqrt(offsets**2 + REST_HEIGHT**2) if ZONE_SHAPE == "hemisphere" else offsets
+        reach = np.sqrt(offsets**2 + REST_HEIGHT**2) if shape == "hemisphere" else offsets
         clear = reach - 0.15
-        self.zone_radii = np.minimum(rng.uniform(*ZONE_RADII, 2), clear)
+        self.zone_radii = np.minimum(rng.uniform(*params.zone_radii, 2), clear)
         for name, x, r in zip(ZONES, self.zone_x, self.zone_radii, strict=True):
             zone = self.model.geom(f"{name}_zone")
             zone.pos[0] = x
             zone.size[0] = r
-            if ZONE_SHAPE == "column":  # drawn as a box up to COLUMN_HEIGHT (visual only)
+            if shape == "column":  # drawn as a box up to COLUMN_HEIGHT (visual only)
                 zone.type = mujoco.mjtGeom.mjGEOM_BOX
                 zone.size[:] = (r, 0.6, COLUMN_HEIGHT / 2)
                 zone.pos[2] = COLUMN_HEIGHT / 2
@@ -159,12 +183,12 @@ class Lander(Scene):
         self, rng: np.random.Generator, count: int, sides: np.ndarray | None = None
     ) -> np.ndarray:
         """``count`` starts at rest on ``sides`` (0 right, 1 left; unset: each at random):
-        ``START_OFFSETS`` from the pad, ``START_HEIGHTS`` up, pitch ±0.2 rad."""
+        ``params.start_offsets`` from the pad, ``START_HEIGHTS`` up, pitch ±0.2 rad."""
         sides = rng.integers(0, 2, count) if sides is None else np.asarray(sides)
         direction = np.where(sides == 0, 1.0, -1.0)
         return np.stack(
             [
-                self.pad_x + direction * rng.uniform(*START_OFFSETS, count),
+                self.pad_x + direction * rng.uniform(*self.params.start_offsets, count),
                 rng.uniform(*START_HEIGHTS, count),
                 rng.uniform(-0.2, 0.2, count),
             ],
@@ -191,7 +215,7 @@ class Lander(Scene):
         out[:, :, 3] = np.abs(pitch) / (np.pi / 2) / steps
         for j, (x, r) in enumerate(zip(self.zone_x, self.zone_radii, strict=True)):
             distance = np.abs(rollouts.qpos[:, :, 0] - x)
-            if ZONE_SHAPE == "hemisphere":
+            if self.params.zone_shape == "hemisphere":
                 distance = np.hypot(distance, rollouts.qpos[:, :, 1])
             out[:, :, 4 + j] = np.clip(r - distance, 0.0, None) / r / ZONE_SCALE / steps
         touched, first = self.touchdown(rollouts)
