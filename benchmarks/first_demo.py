@@ -30,7 +30,7 @@ from scene_constants import add_argument, set_scene_constants
 from threadpoolctl import threadpool_limits
 
 from mjsuff.experiment.replicate import run_replicate
-from mjsuff.experiment.scenario import load_scenario
+from mjsuff.experiment.scenario import ScenarioError, load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -88,6 +88,10 @@ def main() -> None:
     add_argument(parser)
     args = parser.parse_args()
     set_scene_constants(args.scene, args.constant)  # here too: an unknown name fails at once
+    try:  # a bad --set fails here, in one line, not in a worker
+        load_scenario(ROOT / "scenarios" / f"{args.scene}.toml", [f"seed={args.seed}", *args.set])
+    except ScenarioError as error:
+        parser.error(str(error))
     t0 = time.perf_counter()
     jobs = [
         (args.scene, args.seed, r, args.set, args.constant)
@@ -100,6 +104,7 @@ def main() -> None:
         "one demo "
         f"({time.perf_counter() - t0:.0f} s)"
         + "".join(f", {name} = {value}" for name, value in args.constant)
+        + "".join(f", {text}" for text in args.set)
     )
     print("| replicate | w* | MAP weights | true nEVD | bound | regret, seen side | unseen side |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
