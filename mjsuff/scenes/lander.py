@@ -27,11 +27,13 @@ Features (k = 6), from the simulated states and touch sensors:
   goes over it (slower, dearer in fuel) and one that ignores it cuts through.
 * ``array`` — the same for the solar array's zone, to the pad's left.
 
-A zone's shape is ``zone_shape`` (``LanderParams``; unset, ``ZONE_SHAPE``): the shipped
-``"hemisphere"`` above, or ``"column"`` (a design under study, issue #17: no overflight of the
-asset at any height, ``max(0, r − |x − c|) / r`` with ``r`` its half-width; its MJCF geom is
-redrawn as a box ``COLUMN_HEIGHT`` tall, visual only). A column stands between a start and the
-pad, so a reward decides between crossing it and landing short. ``zone_radii`` and
+A zone's shape is ``zone_shape`` (``LanderParams``; unset, ``ZONE_SHAPE``): the module's default
+``"hemisphere"`` above, or ``"column"``, which the shipped scenario (``scenarios/lander.toml``,
+issue #17, stop 45) uses: no overflight of the asset at any height, ``max(0, r − |x − c|) / r``
+with ``r`` its half-width (0.4–0.6 m there), its MJCF geom redrawn as a box ``COLUMN_HEIGHT`` tall
+(visual only). With the starts 2.5–3.5 m out, a column stands between each side's starts and the
+pad, so a reward decides between crossing it (zone, tilt) and landing short (landing error), and
+a demo from one side says nothing of the other side's column. ``zone_radii`` and
 ``start_offsets`` set the ranges drawn below (unset, ``ZONE_RADII`` and ``START_OFFSETS``).
 
 The scales make the features comparable where policies differ, so that weights drawn uniformly
@@ -40,13 +42,13 @@ over it (holding height: more fuel, a later and often harder touchdown), and how
 
 Instances randomize the pad (x in [−0.5, 0.5] m), the two zones (centres 1.2–1.5 m from the pad's
 centre on either side, where the cheap descents from that side's starts pass; the craft resting on
-the pad stays 0.15 m outside them) and two start regions, one on each side (2–3 m from the pad,
-height 4–6 m, pitch ±0.2 rad, at rest). From a start on the right the habitat's zone is in the way
-and the array's beyond the pad; from the left, the reverse. So a demonstration from one side says
-how the demonstrator trades fuel and a soft landing against that side's zone, and nothing about
-the other's: the learner needs demos from both sides. The evaluation starts alternate sides; the
-demonstration pool's sides are a balanced random order. True weights are drawn uniformly from the
-all-negative part of the sphere: every feature is a cost.
+the pad stays 0.15 m outside them) and two start regions, one on each side (2–3 m from the pad by
+default, ``start_offsets``; height 4–6 m, pitch ±0.2 rad, at rest). From a start on the right the
+habitat's zone is in the way and the array's beyond the pad; from the left, the reverse. So a
+demonstration from one side says how the demonstrator trades fuel and a soft landing against that
+side's zone, and nothing about the other's: the learner needs demos from both sides. The evaluation
+starts alternate sides; the demonstration pool's sides are a balanced random order. True weights
+are drawn uniformly from the all-negative part of the sphere: every feature is a cost.
 """
 
 from __future__ import annotations
