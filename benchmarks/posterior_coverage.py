@@ -52,12 +52,7 @@ def likelihood_demo(domain, demo: Demo, beta: float, rng: np.random.Generator) -
     logits = beta * (candidates @ domain.true_weights)
     p = np.exp(logits - logits.max())
     pick = int(rng.choice(len(candidates), p=p / p.sum()))
-    phi = candidates[pick]
-    chosen = Demo(start=demo.start, data={"features": phi})
-    key = np.int64(demo.start).tobytes() + phi.tobytes()
-    # The chosen demo keeps the same set (itself first): CandidateSets' cache, keyed as it keys it.
-    domain.candidate_sets._sets[key] = np.vstack([phi[None], np.delete(candidates, pick, axis=0)])
-    return chosen
+    return domain.candidate_sets.choose(demo, pick)
 
 
 def run_instance(

@@ -50,6 +50,25 @@ def test_candidate_set_holds_the_demo_and_the_demo_joins_the_library(case):
         )
 
 
+def test_a_chosen_candidate_keeps_the_demos_set_and_the_choices_are_a_distribution(case):
+    """``CandidateSets.choose``: a demo drawn from the likelihood itself (a coverage check's
+    demonstrator) is compared with the same candidates, so its probabilities over every choice
+    sum to 1 for any w."""
+    domain, demos = case
+    candidates = domain.candidate_features(demos[0]).copy()
+    w = random_unit_vectors(np.random.default_rng(6), 20, domain.num_features)
+    total = np.zeros(len(w))
+    for pick in range(len(candidates)):
+        chosen = domain.candidate_sets.choose(demos[0], pick)
+        own = domain.candidate_features(chosen)
+        np.testing.assert_array_equal(own[0], candidates[pick])
+        assert sorted(map(tuple, own)) == sorted(map(tuple, candidates))
+        total += np.exp(domain.log_likelihood(w, [chosen], BETA))
+    np.testing.assert_allclose(total, 1.0, rtol=1e-9)
+    with pytest.raises(IndexError, match="the candidate set has"):
+        domain.candidate_sets.choose(demos[0], len(candidates))
+
+
 @pytest.mark.parametrize("name", SCENES)
 def test_family_candidates_are_the_demonstrators_own_and_never_beat_its_choice(name):
     """With ``domain.params.candidates = "family"`` (issue #17) a demo is compared with the

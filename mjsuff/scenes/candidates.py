@@ -75,7 +75,7 @@ class CandidateSets:
             ValueError: The demo's features are not ``k`` finite numbers.
         """
         phi = np.asarray(demo.data["features"], dtype=float)
-        key = np.int64(demo.start).tobytes() + phi.tobytes()
+        key = _key(demo.start, phi)
         if key not in self._sets:
             k = self.scene.num_features
             if phi.shape != (k,) or not np.isfinite(phi).all():
@@ -99,6 +99,17 @@ class CandidateSets:
             self.library.add_features(s, phi)
         return self._sets[key]
 
+    def choose(self, demo: Demo, pick: int) -> Demo:
+        """The demo a demonstrator would have given had it chosen candidate ``pick`` of ``demo``'s
+        set: its candidate set is the same set, the chosen one first (for likelihood checks that
+        draw demos from the likelihood itself, e.g. ``benchmarks/posterior_coverage.py``)."""
+        candidates = self.features(demo)
+        if not 0 <= pick < len(candidates):
+            raise IndexError(f"pick {pick}: the candidate set has {len(candidates)} candidates")
+        phi = candidates[pick]
+        self._sets[_key(demo.start, phi)] = np.vstack([phi[None], np.delete(candidates, pick, axis=0)])
+        return Demo(start=demo.start, data={"features": phi})
+
     def family(self, start: int) -> np.ndarray:
         """Features of the demonstrator's first candidates (``Expert.coarse_params``) executed
         from library start ``start`` ``(M, k)``, those it could follow; cached per start."""
@@ -118,3 +129,8 @@ class CandidateSets:
         starts = np.repeat(self.scene.all_starts[start][None], len(batch), axis=0)
         _, features = self.scene.simulate_controls(starts, batch)
         return features[np.isfinite(features).all(axis=1)]
+
+
+def _key(start: int, phi: np.ndarray) -> bytes:
+    """A demo's cache key: its pool start and its features, bit for bit."""
+    return np.int64(start).tobytes() + np.asarray(phi, dtype=float).tobytes()
