@@ -53,7 +53,7 @@ are drawn uniformly from the all-negative part of the sphere: every feature is a
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Literal, cast, get_args
 
 import mujoco
 import numpy as np
@@ -71,7 +71,7 @@ ZONES = ("habitat", "array")
 #: A zone's mean penetration (a share of its radius) that counts as 1.
 ZONE_SCALE = 0.05
 #: "hemisphere" (on the ground, radius r) or "column" (|x − c| < r at any height; module docs).
-ZONE_SHAPE = "hemisphere"
+ZONE_SHAPE: str = "hemisphere"
 COLUMN_HEIGHT = 8.0  # m, how tall a column zone is drawn (its feature has no top)
 #: Touchdown speed (m/s) and landing error (m) that count as 1.
 IMPACT_SCALE = 5.0
@@ -111,9 +111,10 @@ class LanderParams(SceneParams):
 
     @model_validator(mode="after")
     def _scene_defaults(self) -> LanderParams:
-        self.zone_shape = ZONE_SHAPE if self.zone_shape is None else self.zone_shape
-        if self.zone_shape not in ("hemisphere", "column"):
-            raise ValueError(f'ZONE_SHAPE: expected "hemisphere" or "column", got {self.zone_shape!r}')
+        shape = ZONE_SHAPE if self.zone_shape is None else self.zone_shape
+        if shape not in get_args(ZoneShape):
+            raise ValueError(f'ZONE_SHAPE: expected "hemisphere" or "column", got {shape!r}')
+        self.zone_shape = cast(ZoneShape, shape)
         for name, default in (("zone_radii", ZONE_RADII), ("start_offsets", START_OFFSETS)):
             low, high = getattr(self, name) or default
             if not 0.0 < low <= high:
@@ -159,7 +160,7 @@ class Lander(Scene):
         # The craft resting on the pad stays 0.15 m outside both zones.
         reach = np.sqrt(offsets**2 + REST_HEIGHT**2) if shape == "hemisphere" else offsets
         clear = reach - 0.15
-        self.zone_radii = np.minimum(rng.uniform(*params.zone_radii, 2), clear)
+        self.zone_radii = np.minimum(rng.uniform(*(params.zone_radii or ZONE_RADII), 2), clear)
         for name, x, r in zip(ZONES, self.zone_x, self.zone_radii, strict=True):
             zone = self.model.geom(f"{name}_zone")
             zone.pos[0] = x
@@ -190,7 +191,7 @@ class Lander(Scene):
         direction = np.where(sides == 0, 1.0, -1.0)
         return np.stack(
             [
-                self.pad_x + direction * rng.uniform(*self.params.start_offsets, count),
+                self.pad_x + direction * rng.uniform(*(self.params.start_offsets or START_OFFSETS), count),
                 rng.uniform(*START_HEIGHTS, count),
                 rng.uniform(-0.2, 0.2, count),
             ],
