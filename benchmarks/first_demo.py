@@ -13,8 +13,10 @@ Use design seeds only (not a seed reported as evidence): this is how a scene is 
 
     python benchmarks/first_demo.py lava_reacher --seed 2 --replicates 10
 
-A candidate design is measured with ``--constant NAME=VALUE`` (``scene_constants.py``), e.g.
-``--constant ZONE_RADII=[1.8,2.3]`` on the lander.
+A candidate design is measured with ``--set KEY=VALUE`` (a scenario key, e.g. ``--set
+'domain.params.zone_radii=[0.6,0.9]'`` on the lander) or ``--constant NAME=VALUE`` (a scene
+module's constant the scenario does not set, e.g. ``--constant IMPACT_SCALE=10``;
+``scene_constants.py``).
 """
 
 from __future__ import annotations
@@ -45,14 +47,17 @@ class _LastStep:
         self.demo, self.map_weights, self.map_policy, self.rows = demo, map_weights, map_policy, rows
 
 
+def one_demo(seed: int, overrides: list[str]) -> list[str]:
+    """The scenario overrides of a first-demo replicate: the seed, ``--set``'s, one demo."""
+    return [f"seed={seed}", *overrides, "demos.max_demos=1"]
+
+
 def run_one(
     scene: str, seed: int, replicate: int, overrides: list[str], constants: list[tuple[str, object]]
 ) -> dict:
     """One replicate with one demo: π_MAP's regret per evaluation start, split by side."""
     set_scene_constants(scene, constants)
-    scenario = load_scenario(
-        ROOT / "scenarios" / f"{scene}.toml", [f"seed={seed}", *overrides, "demos.max_demos=1"]
-    )
+    scenario = load_scenario(ROOT / "scenarios" / f"{scene}.toml", one_demo(seed, overrides))
     seen = _LastStep()
     with threadpool_limits(limits=1):
         rows = run_replicate(scenario, replicate, observer=seen)
@@ -89,7 +94,7 @@ def main() -> None:
     args = parser.parse_args()
     set_scene_constants(args.scene, args.constant)  # here too: an unknown name fails at once
     try:  # a bad --set fails here, in one line, not in a worker
-        load_scenario(ROOT / "scenarios" / f"{args.scene}.toml", [f"seed={args.seed}", *args.set])
+        load_scenario(ROOT / "scenarios" / f"{args.scene}.toml", one_demo(args.seed, args.set))
     except ScenarioError as error:
         parser.error(str(error))
     t0 = time.perf_counter()

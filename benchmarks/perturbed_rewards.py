@@ -7,7 +7,9 @@ Demos can only matter where wrong weights produce different motions.
 
     python benchmarks/perturbed_rewards.py lava_reacher --seeds 1 2 3
 
-A candidate design is measured with ``--constant NAME=VALUE`` (``scene_constants.py``).
+A candidate design is measured with ``--set KEY=VALUE`` (a scenario key, e.g.
+``--set 'domain.params.zone_shape="hemisphere"'``) or ``--constant NAME=VALUE`` (a scene module's
+constant, ``scene_constants.py``).
 """
 
 import argparse
@@ -18,16 +20,18 @@ import numpy as np
 from scene_constants import add_argument, set_scene_constants
 
 from mjsuff.experiment.replicate import make_instance
-from mjsuff.experiment.scenario import load_scenario
+from mjsuff.experiment.scenario import ScenarioError, load_scenario
 from mjsuff.sphere import random_unit_vectors
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def measure(name: str, seed: int, random_rewards: int, features: bool = False) -> dict[str, float]:
+def measure(
+    name: str, seed: int, random_rewards: int, features: bool = False, overrides: tuple[str, ...] = ()
+) -> dict[str, float]:
     """The true nEVD of each perturbed reward's plan; with ``features``, also print each plan's
     (and the random policy's) feature expectations per evaluation start."""
-    scenario = load_scenario(ROOT / "scenarios" / f"{name}.toml", [f"seed={seed}"])
+    scenario = load_scenario(ROOT / "scenarios" / f"{name}.toml", [f"seed={seed}", *overrides])
     domain = make_instance(scenario, 0)
     w = domain.true_weights
     v_star = domain.true_optimal_start_values()
@@ -66,12 +70,19 @@ def main() -> None:
     parser.add_argument(
         "--features", action="store_true", help="also print every plan's features per evaluation start"
     )
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     add_argument(parser)
     args = parser.parse_args()
     set_scene_constants(args.scene, args.constant)
+    try:  # a bad --set fails here, in one line, before any planning
+        load_scenario(ROOT / "scenarios" / f"{args.scene}.toml", args.set)
+    except ScenarioError as error:
+        parser.error(str(error))
+    if args.set:
+        print(f"{args.scene} with " + ", ".join(args.set), flush=True)
     for seed in args.seeds:
         t = time.perf_counter()
-        rows = measure(args.scene, seed, args.random, args.features)
+        rows = measure(args.scene, seed, args.random, args.features, tuple(args.set))
         print(
             f"{args.scene} seed {seed} ({time.perf_counter() - t:.0f} s): "
             + ", ".join(f"{k} {v:.3f}" for k, v in rows.items()),

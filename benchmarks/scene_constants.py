@@ -1,13 +1,15 @@
 """Design probes: override a scene module's constants (``--constant NAME=VALUE``) in a benchmark.
 
 A scene's design lives in its module's constants (``mjsuff.scenes.lander.ZONE_RADII``,
-``IMPACT_SCALE``, …). A benchmark given ``--constant ZONE_RADII=[1.8,2.3]`` sets that constant
+``IMPACT_SCALE``, …). A benchmark given ``--constant IMPACT_SCALE=10`` sets that constant
 before it builds an instance (in each worker process), so a candidate design is measured by the
 same code as the shipped one, without editing the package. For design seeds only.
 
 Only the scene module's own reads see the override: a module that imported the name by value
 keeps the shipped one (the lander's expert imports ``REST_HEIGHT`` and ``TOUCH_THRESHOLD``), so
-override only constants the scene module alone reads (``grep`` before trusting a probe).
+override only constants the scene module alone reads (``grep`` before trusting a probe). A
+constant that the scenario file sets as a scene parameter (``ZONE_RADII`` is the lander's
+``domain.params.zone_radii``) is refused: the file's value would win; ``--set`` it instead.
 """
 
 from __future__ import annotations
@@ -15,6 +17,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import tomllib
+from pathlib import Path
+
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
 
 def parse_constant(text: str) -> tuple[str, object]:
@@ -32,9 +38,15 @@ def parse_constant(text: str) -> tuple[str, object]:
 def set_scene_constants(scene: str, constants: list[tuple[str, object]]) -> None:
     """Set each ``(NAME, value)`` on ``mjsuff.scenes.<scene>``; an unknown NAME is an error."""
     module = importlib.import_module(f"mjsuff.scenes.{scene}")
+    params = tomllib.loads((SCENARIOS / f"{scene}.toml").read_text())["domain"].get("params", {})
     for name, value in constants:
         if not hasattr(module, name):
             raise SystemExit(f"--constant {name}: mjsuff.scenes.{scene} has no constant {name}")
+        if name.lower() in params:
+            raise SystemExit(
+                f"--constant {name}: scenarios/{scene}.toml sets domain.params.{name.lower()}, which "
+                f"would win; use --set 'domain.params.{name.lower()}=VALUE'"
+            )
         setattr(module, name, value)
 
 

@@ -67,6 +67,14 @@ def test_a_chosen_candidate_keeps_the_demos_set_and_the_choices_are_a_distributi
     np.testing.assert_allclose(total, 1.0, rtol=1e-9)
     with pytest.raises(IndexError, match="the candidate set has"):
         domain.candidate_sets.choose(demos[0], len(candidates))
+    # Choosing again is the same demo; another demo from the start cannot take over a chosen set.
+    again = domain.candidate_features(domain.candidate_sets.choose(demos[0], 1))
+    np.testing.assert_array_equal(again[0], candidates[1])
+    other = Demo(start=demos[0].start, data={"features": candidates[0] + 0.01})
+    theirs = domain.candidate_features(other)
+    shared = next(i for i in range(1, len(theirs)) if (theirs[i] == candidates).all(axis=1).any())
+    with pytest.raises(ValueError, match="already has another candidate set"):
+        domain.candidate_sets.choose(other, shared)
 
 
 @pytest.mark.parametrize("name", SCENES)

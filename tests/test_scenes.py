@@ -1,5 +1,8 @@
 """MuJoCo scenes: models, randomization, features, physics sanity, divergence, behaviour."""
 
+import tomllib
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -17,6 +20,8 @@ from mjsuff.scenes.lava_reacher import (
 )
 from mjsuff.scenes.planner import PlannerConfig, SamplingPlanner
 from mjsuff.scenes.scene import MODELS, load_model, model_path
+
+ROOT = Path(__file__).parent.parent
 
 #: Every registered scene: (scene type, parameter model), from the one registry.
 SCENES = {n: (spec.scene, spec.params) for n, spec in REGISTRY.items() if spec.scene is not None}
@@ -174,8 +179,8 @@ def test_lander_zone_feature_only_inside_its_zone(zone):
 
 @pytest.mark.parametrize("shape", ["hemisphere", "column"])
 def test_lander_zone_shape_column_counts_at_any_height_over_its_width(shape):
-    # Zones wider than allowed: the clearance binds.
-    scene = make("lander", 5, zone_shape=shape, zone_radii=(3.0, 3.0))
+    # Zones wider than allowed: the clearance binds (the starts beyond the widest column).
+    scene = make("lander", 5, zone_shape=shape, zone_radii=(3.0, 3.0), start_offsets=(3.0, 3.5))
     x, r = scene.zone_x[0], scene.zone_radii[0]
     reach = np.abs(scene.zone_x - scene.pad_x)
     if shape == "hemisphere":
@@ -194,13 +199,22 @@ def test_lander_zone_shape_column_counts_at_any_height_over_its_width(shape):
 
 def test_lander_unknown_zone_shape_is_a_clear_error(monkeypatch):
     monkeypatch.setattr(lander, "ZONE_SHAPE", "cylinder")  # a design probe's --constant
-    with pytest.raises(ValueError, match="ZONE_SHAPE: expected"):
+    with pytest.raises(ValueError, match=r"zone_shape\n.*'hemisphere' or 'column'"):
         make("lander", 5)
 
 
+def test_lander_columns_reaching_the_starts_are_a_clear_error():
+    # Columns have no top: the module's default radii (1.1-1.4 m, centres up to 1.5 m out) reach
+    # 2.85 m from the pad, past the default starts' 2 m.
+    with pytest.raises(ValueError, match=r"start_offsets: .* expected start_offsets low > 2\.85 \(m\)"):
+        LanderParams(zone_shape="column")
+    LanderParams(zone_shape="column", start_offsets=(2.9, 3.5))  # clear of them
+    LanderParams(zone_shape="hemisphere", start_offsets=(2.0, 3.0))  # the starts are high above
+
+
 def test_lander_design_defaults_to_the_module_constants_and_is_set_per_scenario(monkeypatch):
-    shipped = LanderParams()
-    assert (shipped.zone_shape, shipped.zone_radii, shipped.start_offsets) == (
+    defaults = LanderParams()
+    assert (defaults.zone_shape, defaults.zone_radii, defaults.start_offsets) == (
         lander.ZONE_SHAPE,
         lander.ZONE_RADII,
         lander.START_OFFSETS,
@@ -217,8 +231,16 @@ def test_lander_design_defaults_to_the_module_constants_and_is_set_per_scenario(
         LanderParams.model_validate({"zone_radii": [0.6, 0.4]})
 
 
-def test_lander_starts_alternate_sides_and_each_side_faces_its_own_zone():
-    scene = make("lander", 2, pool_starts=10)
+def scenario_design(name: str) -> dict:
+    """The scene design keys a shipped scenario file sets."""
+    params = tomllib.loads((ROOT / "scenarios" / f"{name}.toml").read_text())["domain"]["params"]
+    return {k: params[k] for k in ("zone_shape", "zone_radii", "start_offsets") if k in params}
+
+
+@pytest.mark.parametrize("design", ["module", "scenario"])
+def test_lander_starts_alternate_sides_and_each_side_faces_its_own_zone(design):
+    scene = make("lander", 2, pool_starts=10, **(scenario_design("lander") if design == "scenario" else {}))
+    assert design == "module" or scene.params.zone_shape == "column"  # the shipped design
     assert scene.start_sides.tolist() == [0, 1, 0, 1] and sorted(scene.pool_sides) == [0] * 5 + [1] * 5
     assert scene.zone_x[1] < scene.pad_x < scene.zone_x[0]  # habitat right, array left
     for starts, sides in ((scene.starts, scene.start_sides), (scene.pool_starts, scene.pool_sides)):
@@ -226,8 +248,16 @@ def test_lander_starts_alternate_sides_and_each_side_faces_its_own_zone():
         # The own side's zone lies between the start and the pad, the other beyond the pad.
         assert ((starts[:, 0] - own) * (own - scene.pad_x) > 0).all()
         assert ((other - scene.pad_x) * (scene.pad_x - starts[:, 0]) > 0).all()
+        # Every start is outside both zones (a column counts at any height).
+        for x, r in zip(scene.zone_x, scene.zone_radii, strict=True):
+            dx = starts[:, 0] - x
+            distance = np.abs(dx) if scene.params.zone_shape == "column" else np.hypot(dx, starts[:, 1])
+            assert (distance > r).all()
     # Resting on the pad keeps the craft outside both zones.
-    assert (np.hypot(scene.zone_x - scene.pad_x, REST_HEIGHT) > scene.zone_radii).all()
+    reach = np.abs(scene.zone_x - scene.pad_x)
+    if scene.params.zone_shape == "hemisphere":
+        reach = np.hypot(reach, REST_HEIGHT)
+    assert (reach > scene.zone_radii).all()
 
 
 def test_lander_flies_over_its_zone_only_when_it_matters():

@@ -107,7 +107,13 @@ class CandidateSets:
         if not 0 <= pick < len(candidates):
             raise IndexError(f"pick {pick}: the candidate set has {len(candidates)} candidates")
         phi = candidates[pick]
-        self._sets[_key(demo.start, phi)] = np.vstack([phi[None], np.delete(candidates, pick, axis=0)])
+        chosen = np.vstack([phi[None], np.delete(candidates, pick, axis=0)])
+        stored = self._sets.setdefault(_key(demo.start, phi), chosen)
+        if stored is not chosen and not np.array_equal(stored, chosen):
+            raise ValueError(
+                f"pick {pick}: a demo from start {demo.start} with these features already has another "
+                "candidate set (its likelihood would change)"
+            )
         return Demo(start=demo.start, data={"features": phi})
 
     def family(self, start: int) -> np.ndarray:

@@ -53,7 +53,7 @@ are drawn uniformly from the all-negative part of the sphere: every feature is a
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, cast, get_args
+from typing import Annotated, Literal
 
 import mujoco
 import numpy as np
@@ -71,7 +71,7 @@ ZONES = ("habitat", "array")
 #: A zone's mean penetration (a share of its radius) that counts as 1.
 ZONE_SCALE = 0.05
 #: "hemisphere" (on the ground, radius r) or "column" (|x − c| < r at any height; module docs).
-ZONE_SHAPE: str = "hemisphere"
+ZONE_SHAPE = "hemisphere"
 COLUMN_HEIGHT = 8.0  # m, how tall a column zone is drawn (its feature has no top)
 #: Touchdown speed (m/s) and landing error (m) that count as 1.
 IMPACT_SCALE = 5.0
@@ -101,25 +101,40 @@ class LanderParams(SceneParams):
 
     horizon: float = Field(4.0, gt=0.5, le=20.0, description="trajectory length (s)")
     knots: int = Field(5, ge=2, le=20, description="control knots per actuator")
-    zone_shape: ZoneShape | None = Field(
-        None, description='a keep-out zone: "hemisphere" on the ground or "column" at any height'
+    # Unset, the design is the module's constants, read when a scenario is validated (so a design
+    # probe's override reaches it) and written into the resolved scenario, which says what ran.
+    zone_shape: ZoneShape = Field(
+        default_factory=lambda: ZONE_SHAPE,
+        validate_default=True,
+        description='a keep-out zone: "hemisphere" on the ground or "column" at any height',
     )
-    zone_radii: Range | None = Field(None, description="range of a zone's radius or half-width (m)")
-    start_offsets: Range | None = Field(
-        None, description="range of a start's horizontal distance from the pad (m)"
+    zone_radii: Range = Field(
+        default_factory=lambda: ZONE_RADII,
+        validate_default=True,
+        description="range of a zone's radius or half-width (m), each capped so that the craft "
+        "resting on the pad stays 0.15 m outside",
+    )
+    start_offsets: Range = Field(
+        default_factory=lambda: START_OFFSETS,
+        validate_default=True,
+        description="range of a start's horizontal distance from the pad (m)",
     )
 
     @model_validator(mode="after")
     def _scene_defaults(self) -> LanderParams:
-        shape = ZONE_SHAPE if self.zone_shape is None else self.zone_shape
-        if shape not in get_args(ZoneShape):
-            raise ValueError(f'ZONE_SHAPE: expected "hemisphere" or "column", got {shape!r}')
-        self.zone_shape = cast(ZoneShape, shape)
-        for name, default in (("zone_radii", ZONE_RADII), ("start_offsets", START_OFFSETS)):
-            low, high = getattr(self, name) or default
+        for name in ("zone_radii", "start_offsets"):
+            low, high = getattr(self, name)
             if not 0.0 < low <= high:
                 raise ValueError(f"{name}: expected 0 < low <= high (m), got ({low}, {high})")
-            setattr(self, name, (float(low), float(high)))
+        if self.zone_shape == "column":  # a column has no top: no start may stand inside one
+            far = ZONE_OFFSETS[1]
+            reach = far + min(self.zone_radii[1], far - 0.15)
+            if self.start_offsets[0] <= reach:
+                raise ValueError(
+                    f"start_offsets: a start {self.start_offsets[0]} m from the pad can stand inside a "
+                    f"column zone reaching {reach:.2f} m out (zone_radii up to {self.zone_radii[1]} m, "
+                    f"centres up to {far} m out); expected start_offsets low > {reach:.2f} (m)"
+                )
         # Unset budgets become the scene's tested ones, so a resolved scenario says what ran.
         self.planning = self.planning.resolved(
             Lander.planner_config, Lander.refine_config, Lander.seed_config
@@ -160,7 +175,7 @@ class Lander(Scene):
         # The craft resting on the pad stays 0.15 m outside both zones.
         reach = np.sqrt(offsets**2 + REST_HEIGHT**2) if shape == "hemisphere" else offsets
         clear = reach - 0.15
-        self.zone_radii = np.minimum(rng.uniform(*(params.zone_radii or ZONE_RADII), 2), clear)
+        self.zone_radii = np.minimum(rng.uniform(*params.zone_radii, 2), clear)
         for name, x, r in zip(ZONES, self.zone_x, self.zone_radii, strict=True):
             zone = self.model.geom(f"{name}_zone")
             zone.pos[0] = x
@@ -191,7 +206,7 @@ class Lander(Scene):
         direction = np.where(sides == 0, 1.0, -1.0)
         return np.stack(
             [
-                self.pad_x + direction * rng.uniform(*(self.params.start_offsets or START_OFFSETS), count),
+                self.pad_x + direction * rng.uniform(*self.params.start_offsets, count),
                 rng.uniform(*START_HEIGHTS, count),
                 rng.uniform(-0.2, 0.2, count),
             ],
