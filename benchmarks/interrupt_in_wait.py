@@ -6,14 +6,14 @@ SIGTERM turned into one) raises ``KeyboardInterrupt`` wherever the main thread i
 ``wait()`` that can be between taking one future's lock and the next, so the locks taken so far
 are never released. The manager thread then blocks on one of them for good and
 ``ProcessPoolExecutor.shutdown(wait=True)`` with it: an interrupted run that never ends (the
-``test_interrupt_mid_run...`` hang seen twice in CI under load).
+``test_interrupt_mid_run...`` hang, seen twice in CI under load).
 
 Here a thread finishes many futures quickly while the main thread waits on them (as the manager
 thread and the run do), and a SIGINT comes at a random moment. Printed per way of waiting: the
 trials whose interrupt left a lock held, i.e. that would hang:
 
 * ``raw``: ``wait()`` with Python's own SIGINT handler (the code before the fix);
-* ``deferred``: the signal recorded by ``DeferredSignals`` and delivered between waits (the fix).
+* ``deferred``: each bounded wait inside ``DeferredSignals``, the signal handled as it ends (the fix).
 
     python benchmarks/interrupt_in_wait.py --trials 200
 """
@@ -53,13 +53,11 @@ def trial(rng: random.Random, deferred: bool) -> bool:
     pending = set(futures)
     try:
         if deferred:
-            with DeferredSignals() as signals:
-                kicker.start()
-                while pending:
-                    signals.deliver()
+            kicker.start()
+            while pending:
+                with DeferredSignals():  # as LocalBackend.run waits
                     _, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
-                kicker.join()
-                signals.deliver()
+            kicker.join()
         else:
             kicker.start()
             while pending:

@@ -1,6 +1,8 @@
-"""DeferredSignals: a Ctrl-C or SIGTERM is handled where the caller says, never in between (a
-second one at once), and the usual handlers come back."""
+"""DeferredSignals: a Ctrl-C or SIGTERM inside the block is handled when it ends (once), the
+usual handlers come back; the local backend takes a Ctrl-C mid-run and stops its worker."""
 
+import multiprocessing
+import os
 import signal
 import threading
 
@@ -16,7 +18,7 @@ from tests.conftest import small_scenario
 @pytest.fixture(autouse=True)
 def usual_handlers():
     """Python's own SIGINT handler (a test run started in the background has SIGINT ignored) and
-    SIGTERM's default action (earlier tests in this process may have left a handler)."""
+    SIGTERM's default action (earlier tests in this process may have left a handler: ray.init)."""
     previous = {
         signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
         signal.SIGTERM: signal.signal(signal.SIGTERM, signal.SIG_DFL),
@@ -26,29 +28,20 @@ def usual_handlers():
         signal.signal(signum, handler)
 
 
-def test_a_signal_waits_for_deliver():
-    with DeferredSignals() as signals:
-        signal.raise_signal(signal.SIGINT)  # handled on return: recorded, nothing raised
-        assert signals.pending
-        with pytest.raises(KeyboardInterrupt):
-            signals.deliver()
-        assert not signals.pending
-        signals.deliver()  # nothing left to hand on
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-
-
-def test_a_second_signal_is_handled_at_once():
-    with DeferredSignals() as signals:
-        signal.raise_signal(signal.SIGINT)
-        with pytest.raises(KeyboardInterrupt):
-            signal.raise_signal(signal.SIGINT)
-        assert not signals.pending
-
-
-def test_a_pending_signal_is_delivered_on_exit_unless_an_error_is_going_up():
+def test_a_signal_inside_the_block_is_handled_when_it_ends_once():
+    reached = []
     with pytest.raises(KeyboardInterrupt):
         with DeferredSignals():
-            signal.raise_signal(signal.SIGINT)
+            signal.raise_signal(signal.SIGINT)  # its handler runs here: recorded, nothing raised
+            signal.raise_signal(signal.SIGINT)  # adds nothing
+            reached.append(True)
+    assert reached == [True]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with DeferredSignals():  # nothing left over for the next block
+        pass
+
+
+def test_a_signal_is_dropped_when_an_error_is_already_going_up():
     with pytest.raises(ValueError):  # the error going up is the one reported
         with DeferredSignals():
             signal.raise_signal(signal.SIGINT)
@@ -57,11 +50,9 @@ def test_a_pending_signal_is_delivered_on_exit_unless_an_error_is_going_up():
 
 
 def test_sigterm_is_deferred_only_where_it_interrupts():
-    with sigterm_interrupts(), DeferredSignals() as signals:
-        signal.raise_signal(signal.SIGTERM)
-        assert signals.pending
-        with pytest.raises(KeyboardInterrupt):
-            signals.deliver()
+    with pytest.raises(KeyboardInterrupt), sigterm_interrupts():
+        with DeferredSignals():
+            signal.raise_signal(signal.SIGTERM)
     # Elsewhere SIGTERM keeps its default action (to end the process), untouched.
     with DeferredSignals():
         assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
@@ -71,24 +62,26 @@ def test_outside_the_main_thread_nothing_changes():
     seen = []
 
     def body():
-        with DeferredSignals() as signals:
-            seen.append((signal.getsignal(signal.SIGINT), signals.pending))
+        with DeferredSignals():
+            seen.append(signal.getsignal(signal.SIGINT))
 
     thread = threading.Thread(target=body)
     thread.start()
     thread.join()
-    assert seen == [(signal.default_int_handler, False)]
+    assert seen == [signal.default_int_handler]
 
 
-def test_local_backend_takes_a_ctrl_c_between_replicates_not_while_the_caller_writes_one():
-    scenario = small_scenario(replicates=3)
-    tasks = [ReplicateTask((0, r), scenario, r) for r in range(3)]
-    results = LocalBackend(1).run(tasks)
-    first, _ = next(results)
-    assert first.replicate == 0
-    # The caller is saving replicate 0 when Ctrl-C comes: it finishes that undisturbed ...
-    signal.raise_signal(signal.SIGINT)
-    # ... and the interrupt comes out of the backend, which stops its worker.
-    with pytest.raises(KeyboardInterrupt):
-        next(results)
+def test_local_backend_stops_on_a_ctrl_c_while_it_waits_on_its_worker():
+    scenario = small_scenario(replicates=6)
+    tasks = [ReplicateTask((0, r), scenario, r) for r in range(6)]
+    # Half a second in, the backend is waiting on its worker (starting it alone takes longer).
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            for _ in LocalBackend(1).run(tasks):
+                pass
+    finally:
+        timer.cancel()
+    assert multiprocessing.active_children() == []  # the worker was stopped and joined
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

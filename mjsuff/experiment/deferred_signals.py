@@ -1,46 +1,50 @@
-"""``DeferredSignals``: SIGINT and SIGTERM held back until a point the caller chooses.
+"""``DeferredSignals``: SIGINT and SIGTERM held back to the end of a short block.
 
 Why: ``concurrent.futures.wait`` takes every future's lock in turn. A ``KeyboardInterrupt``
 raised there by a signal handler can leave some of those locks held by the main thread; the
 pool's manager thread, which sets results under them, then blocks for good, and so does
-``ProcessPoolExecutor.shutdown(wait=True)``: a Ctrl-C that hangs the run instead of stopping it
-(seen about once in a hundred interrupted runs under load; reproduced with a thread finishing
-futures while the main thread waits on them).
+``ProcessPoolExecutor.shutdown(wait=True)``: an interrupted run that never ends (seen twice in
+CI under load; ``benchmarks/interrupt_in_wait.py`` shows the window).
 """
 
 from __future__ import annotations
 
 import signal
 import threading
+from collections.abc import Callable
 from types import FrameType, TracebackType
-from typing import Any
 
-DEFERRED = (signal.SIGINT, signal.SIGTERM)
+_DEFERRED = (signal.SIGINT, signal.SIGTERM)
+
+Handler = Callable[[int, FrameType | None], object]
 
 
 class DeferredSignals:
-    """While active, a SIGINT or SIGTERM is recorded instead of handled; ``deliver()`` hands the
-    recorded one to its usual handler (for Ctrl-C: raise ``KeyboardInterrupt``) where the caller
-    calls it. A second signal before that is handled at once, so a stuck program still stops on
-    a second Ctrl-C.
+    """Inside the block, a SIGINT or SIGTERM is recorded instead of handled; on leaving it, the
+    first one recorded goes to its usual handler (for Ctrl-C: ``KeyboardInterrupt``, raised
+    there), unless an exception is already going up. Meant for short blocks (a bounded wait):
+    further signals inside the block add nothing.
 
     Only signals whose handler is a Python function are deferred (SIGTERM is, inside
     ``mjsuff.cli.signals.sigterm_interrupts``); an ignored or default-action signal keeps its
     disposition. Signal handlers belong to the main thread: in any other thread this does
-    nothing. Not reentrant.
+    nothing. One block per instance at a time.
     """
 
     def __init__(self) -> None:
-        self._previous: dict[int, Any] = {}
+        self._previous: dict[int, Handler] = {}
         self._pending: int | None = None
+        self._open = False
 
     def __enter__(self) -> DeferredSignals:
         if threading.current_thread() is not threading.main_thread():
             return self
-        for signum in DEFERRED:
+        self._pending, self._open = None, True
+        for signum in _DEFERRED:
             handler = signal.getsignal(signum)
             if callable(handler):
-                self._previous[signum] = signal.signal(signum, self._record)
+                self._previous[signum] = handler
+                signal.signal(signum, self._record)
         return self
 
     def __exit__(
@@ -49,30 +53,15 @@ class DeferredSignals:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        """Put the usual handlers back. A signal still pending is dropped when an exception is
-        already going up (the work is stopping anyway), else delivered."""
-        previous, self._previous = self._previous, {}
-        for signum, handler in previous.items():
+        self._open = False  # from here a signal goes straight to its usual handler
+        for signum, handler in self._previous.items():
             signal.signal(signum, handler)
-        if exc_type is None and self._pending is not None:
-            signum, self._pending = self._pending, None
-            previous[signum](signum, None)
-
-    @property
-    def pending(self) -> bool:
-        """Whether a signal arrived that ``deliver()`` has not handed on yet."""
-        return self._pending is not None
-
-    def deliver(self) -> None:
-        """Handle the signal recorded since the last call, if any, with its usual handler."""
-        if self._pending is None:
-            return
-        signum, self._pending = self._pending, None
-        self._previous[signum](signum, None)
+        pending, self._pending = self._pending, None
+        if pending is not None and exc_type is None:
+            self._previous[pending](pending, None)
 
     def _record(self, signum: int, frame: FrameType | None) -> None:
-        if self._pending is not None:  # the second one: no more waiting
-            self._pending = None
+        if not self._open:  # arrived while the handlers were being put back
             self._previous[signum](signum, frame)
-            return
-        self._pending = signum
+        elif self._pending is None:
+            self._pending = signum

@@ -26,7 +26,7 @@ from mjsuff.experiment.backend import (
 )
 from mjsuff.experiment.deferred_signals import DeferredSignals
 
-_POLL_SECONDS = 0.1  # how often a deferred Ctrl-C is looked for while replicates run (s)
+_POLL_SECONDS = 0.1  # longest wait on the workers before a Ctrl-C is handled (s)
 
 
 @contextlib.contextmanager
@@ -130,32 +130,29 @@ class LocalBackend(Backend):
         pool = ProcessPoolExecutor(
             workers, mp_context=context, initializer=_worker_init, initargs=(self.sim_threads,)
         )
-        # Ctrl-C and SIGTERM take effect between waits, never inside one (see DeferredSignals),
-        # nor while the caller writes a yielded replicate.
-        with DeferredSignals() as signals:
-            try:
-                if drainer is not None:
-                    drainer.start()
-                with _sigint_ignored():  # worker processes start on the first submissions
-                    pending: dict[Future, ReplicateTask] = {
-                        pool.submit(_execute_reporting, t, events): t for t in tasks
-                    }
-                while pending:
-                    signals.deliver()  # raises KeyboardInterrupt after a Ctrl-C
+        try:
+            if drainer is not None:
+                drainer.start()
+            with _sigint_ignored():  # worker processes start on the first submissions
+                pending: dict[Future, ReplicateTask] = {
+                    pool.submit(_execute_reporting, t, events): t for t in tasks
+                }
+            while pending:
+                # A Ctrl-C inside wait() could leave futures' locks held, and the pool's shutdown
+                # would then hang: it is handled when the (bounded) wait ends.
+                with DeferredSignals():
                     done, _ = wait(pending, timeout=_POLL_SECONDS, return_when=FIRST_COMPLETED)
-                    for future in sorted(done, key=lambda f: pending[f].key):
-                        task = pending.pop(future)
-                        yield task, future.result()
-                signals.deliver()
-            except BaseException:
-                # Interrupted or failed: unfinished replicates are abandoned, not waited for.
-                for process in list(getattr(pool, "_processes", {}).values()):
-                    process.terminate()
-                raise
-            finally:
-                pool.shutdown(wait=True, cancel_futures=True)
-                stop.set()
-                if drainer is not None:
-                    drainer.join()
-                if manager is not None:
-                    manager.shutdown()
+                for future in sorted(done, key=lambda f: pending[f].key):
+                    yield pending.pop(future), future.result()
+        except BaseException:
+            # Interrupted or failed: unfinished replicates are abandoned, not waited for.
+            for process in list(getattr(pool, "_processes", {}).values()):
+                process.terminate()
+            raise
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+            stop.set()
+            if drainer is not None:
+                drainer.join()
+            if manager is not None:
+                manager.shutdown()
