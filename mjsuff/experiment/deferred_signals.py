@@ -16,7 +16,7 @@ from types import FrameType, TracebackType
 
 _DEFERRED = (signal.SIGINT, signal.SIGTERM)
 
-Handler = Callable[[int, FrameType | None], object]
+_Handler = Callable[[int, FrameType | None], object]
 
 
 class DeferredSignals:
@@ -32,7 +32,7 @@ class DeferredSignals:
     """
 
     def __init__(self) -> None:
-        self._previous: dict[int, Handler] = {}
+        self._previous: dict[int, _Handler] = {}
         self._pending: int | None = None
         self._open = False
 
