@@ -1,5 +1,7 @@
 """Backends: local processes and Ray give the same rows as a serial run for the same seeds."""
 
+import signal
+
 import pandas as pd
 import pytest
 
@@ -42,8 +44,11 @@ def test_local_processes_match_serial(serial_run, tmp_path):
 def test_ray_matches_serial(serial_run, tmp_path):
     pytest.importorskip("ray", reason="the ray extra is not installed")
     backend = make_backend("ray", workers=2)
+    sigterm = signal.getsignal(signal.SIGTERM)
     try:
         run_scenario(small_scenario(replicates=3), tmp_path / "ray", backend=backend, record=False)
+        # ray.init's own SIGTERM handler does not stay: the caller's acts during the run.
+        assert signal.getsignal(signal.SIGTERM) is sigterm
     finally:
         backend.shutdown()
     pd.testing.assert_frame_equal(

@@ -18,7 +18,7 @@ from tests.conftest import small_scenario
 @pytest.fixture(autouse=True)
 def usual_handlers():
     """Python's own SIGINT handler (a test run started in the background has SIGINT ignored) and
-    SIGTERM's default action (earlier tests in this process may have left a handler: ray.init)."""
+    SIGTERM's default action (earlier tests in this process may have set a handler)."""
     previous = {
         signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
         signal.SIGTERM: signal.signal(signal.SIGTERM, signal.SIG_DFL),

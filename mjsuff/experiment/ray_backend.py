@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import socket
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -73,7 +75,8 @@ class RayBackend(Backend):
             "configure_logging": False,
         }
         if not self.address:
-            self.ray.init(num_cpus=self.num_cpus or os.cpu_count() or 1, **options)
+            with _sigterm_handler_kept():
+                self.ray.init(num_cpus=self.num_cpus or os.cpu_count() or 1, **options)
             return
         if self.address not in ("auto", "local"):
             host, port = _host_port(self.address)
@@ -81,7 +84,8 @@ class RayBackend(Backend):
             if not self.address.startswith("ray://"):
                 _check_gcs(self.ray, self.address, f"{host}:{port}")
         try:
-            self.ray.init(address=self.address, **options)
+            with _sigterm_handler_kept():
+                self.ray.init(address=self.address, **options)
         except _auth_error(self.ray) as exc:
             raise ClusterConnectionError(_auth_refused(self.address, exc)) from None
         except ConnectionError as exc:
@@ -121,6 +125,22 @@ class RayBackend(Backend):
 DEFAULT_TOKEN_FILE = "~/.ray/auth_token"
 #: The time a cluster's address gets to accept a socket connection.
 CONNECT_TIMEOUT = 10.0
+
+
+@contextlib.contextmanager
+def _sigterm_handler_kept() -> Iterator[None]:
+    """Put back the caller's SIGTERM handler after the block: ``ray.init`` installs its own (to
+    exit while it connects) and leaves it, where the caller's (e.g. ``mjsuff run``'s clean
+    interrupt) is the one that should act afterwards."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        yield
+    finally:
+        if previous is not None:  # None: set outside Python, cannot be put back
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _host_port(address: str) -> tuple[str, int]:
