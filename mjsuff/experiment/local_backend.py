@@ -12,6 +12,7 @@ import threading
 import time
 from collections.abc import Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from multiprocessing import resource_tracker
 from multiprocessing.managers import SyncManager
 from typing import Any
 
@@ -30,16 +31,23 @@ _POLL_SECONDS = 0.1  # longest wait on the workers before a Ctrl-C is handled (s
 
 
 @contextlib.contextmanager
-def _sigint_ignored() -> Iterator[None]:
-    """Ignore SIGINT in this (main) thread while child processes start, so they inherit it."""
+def _sigint_held() -> Iterator[None]:
+    """Block SIGINT in this (main) thread while child processes start: they inherit it blocked,
+    so a Ctrl-C cannot end them during their imports (their initializer then ignores it). A
+    Ctrl-C meanwhile is the parent's and is not lost: it is handled when the block ends
+    (``DeferredSignals``), after the children have started."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    # multiprocessing's resource tracker (the first spawned child starts it) is started before
+    # the block: starting it unblocks SIGINT in this thread.
+    resource_tracker.ensure_running()
+    with DeferredSignals():
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _exit_with_parent(poll: float = 1.0) -> None:
@@ -60,7 +68,8 @@ def _exit_with_parent(poll: float = 1.0) -> None:
 
 
 def _worker_init(threads: int) -> None:
-    # Ctrl-C is the parent's to handle: it keeps what finished and stops the workers.
+    # Ctrl-C is the parent's to handle: it keeps what finished and stops the workers. (A Ctrl-C
+    # held pending since the process started is dropped here.)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     os.environ[SIM_THREADS_ENV] = str(threads)
     _exit_with_parent()
@@ -105,13 +114,17 @@ class LocalBackend(Backend):
             return
         workers = min(self.workers, len(tasks))
         context = multiprocessing.get_context("spawn")
-        # Children inherit an ignored SIGINT from the moment they start (before their slow
+        # Children inherit a blocked SIGINT from the moment they start (before their slow
         # imports): Ctrl-C is the parent's to handle.
         manager = None
         if on_step is not None:
             manager = SyncManager(ctx=context)
-            with _sigint_ignored():
-                manager.start(_manager_init)
+            try:
+                with _sigint_held():
+                    manager.start(_manager_init)
+            except KeyboardInterrupt:  # held while it started: it has, and is not left running
+                manager.shutdown()
+                raise
         events = manager.Queue() if manager is not None else None
         by_key = {t.key: t for t in tasks}
         stop = threading.Event()
@@ -133,7 +146,7 @@ class LocalBackend(Backend):
         try:
             if drainer is not None:
                 drainer.start()
-            with _sigint_ignored():  # worker processes start on the first submissions
+            with _sigint_held():  # worker processes start on the first submissions
                 pending: dict[Future, ReplicateTask] = {
                     pool.submit(_execute_reporting, t, events): t for t in tasks
                 }
