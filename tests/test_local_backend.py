@@ -106,9 +106,8 @@ def test_a_ctrl_c_while_the_processes_start_ends_the_run_cleanly(tmp_path, progr
         text=True,
         timeout=300,
         start_new_session=True,  # the Ctrl-C goes to this process group alone
-        preexec_fn=lambda: signal.signal(
-            signal.SIGINT, signal.SIG_DFL
-        ),  # not ignored, if we run in the background
+        # SIGINT back to its default: a test run started in the background inherits it ignored.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     # Not lost (the run would finish), and no child killed mid-import (its traceback, and the
     # parent's EOFError waiting for it).
