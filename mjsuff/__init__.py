@@ -6,8 +6,23 @@ on nEVD and PIOB) → ``stopping`` (ours and the baselines) → ``experiment`` (
 results) → ``cli``.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 __version__ = "0.1.0"
 
-from mjsuff.domain import Demo, Domain, Policy
+if TYPE_CHECKING:
+    from mjsuff.domain import Demo, Domain, Policy
 
 __all__ = ["Demo", "Domain", "Policy", "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    """``Demo``, ``Domain`` and ``Policy`` are imported on first use, so that ``import mjsuff``
+    (and the command line's entry point, :mod:`mjsuff.cli.entry`) imports nothing heavy."""
+    if name in ("Demo", "Domain", "Policy"):
+        import mjsuff.domain
+
+        return getattr(mjsuff.domain, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -2,6 +2,6 @@
 
 import sys
 
-from mjsuff.cli.main import main
+from mjsuff.cli import main
 
 sys.exit(main())

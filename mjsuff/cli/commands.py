@@ -32,7 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def run_command(argv: list[str] | None = None) -> int:
     """Run one command; an :class:`MjsuffError` becomes one line on stderr and its exit status."""
     args = build_parser().parse_args(argv)
     try:

@@ -6,7 +6,7 @@ import pytest
 
 from mjsuff.cli import build_parser, main
 from mjsuff.cli import hoeffding as hoeffding_command
-from mjsuff.cli.main import COMMANDS
+from mjsuff.cli.commands import COMMANDS
 from mjsuff.errors import MjsuffError
 
 SCENARIO_COMMANDS = ("run", "demos", "calibrate")
