@@ -231,3 +231,19 @@ def test_a_key_an_older_run_lacks_shows_its_default(sweep_run, tmp_path):
         (directory / "config.toml").write_text(tomli_w.dumps(config))
     labelled = {c.directory.name: c.labels for c in load_cells([older, newer])}
     assert labelled == {"older": {"demos.lapse": 0.0}, "newer": {"demos.lapse": 0.2}}
+
+
+def test_a_ctrl_c_while_a_figure_is_written_leaves_no_partial_file(sweep_run, tmp_path, monkeypatch, capsys):
+    import matplotlib.figure
+
+    def interrupted_savefig(self, handle, **kwargs):
+        handle.write(PNG + b"half a figure")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", interrupted_savefig)
+    out = tmp_path / "report"
+
+    assert main(["report", str(sweep_run), "--out", str(out)]) == 130
+
+    assert "mjsuff report: interrupted" in capsys.readouterr().err
+    assert not out.exists() or sorted(p.name for p in out.iterdir()) == []

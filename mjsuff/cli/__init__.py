@@ -16,15 +16,16 @@ from typing import TYPE_CHECKING, Any
 
 from mjsuff.cli.entry import main
 
-if TYPE_CHECKING:
-    from mjsuff.cli.commands import build_parser
-
 __all__ = ["build_parser", "main"]
 
+if TYPE_CHECKING:  # type checkers see the name itself (and a misspelt one is an error)
+    from mjsuff.cli.commands import build_parser
+else:
 
-def __getattr__(name: str) -> Any:
-    if name == "build_parser":
-        from mjsuff.cli.commands import build_parser
+    def __getattr__(name: str) -> Any:
+        """``build_parser`` is imported on first use (it imports every command)."""
+        if name == "build_parser":
+            from mjsuff.cli.commands import build_parser
 
-        return build_parser
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+            return build_parser
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

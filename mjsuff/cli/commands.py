@@ -12,7 +12,7 @@ import mjsuff.cli.run as run
 import mjsuff.cli.scenarios as scenarios
 import mjsuff.cli.view as view
 from mjsuff import __version__
-from mjsuff.cli.console import EXIT_MEMORY, error
+from mjsuff.cli.console import EXIT_INTERRUPTED, EXIT_MEMORY, error, note
 from mjsuff.errors import MjsuffError
 
 #: The commands in the order ``mjsuff --help`` lists them.
@@ -40,6 +40,11 @@ def run_command(argv: list[str] | None = None) -> int:
     except MjsuffError as exc:
         error(str(exc))
         return exc.exit_code
+    except KeyboardInterrupt:
+        # Commands that keep partial work (run, demos, calibrate, view) say what they kept
+        # themselves; any other stops here, its files written whole or not at all.
+        note(f"mjsuff {args.command}: interrupted; nothing half-written was left")
+        return EXIT_INTERRUPTED
     except MemoryError:
         error(
             f"mjsuff {args.command}: out of memory. A run keeps its finished replicates: free memory or "

@@ -12,7 +12,7 @@ from __future__ import annotations
 import signal
 import sys
 import threading
-from typing import Any
+from types import FrameType
 
 #: Exit status of an interrupted command (128 + SIGINT), as ``mjsuff.cli.console.EXIT_INTERRUPTED``.
 EXIT_INTERRUPTED = 130
@@ -21,29 +21,34 @@ STARTUP_INTERRUPTED = "mjsuff: interrupted while starting; nothing was written"
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Import the commands, then run one (:func:`mjsuff.cli.commands.run_command`); a Ctrl-C before they are
-    imported prints :data:`STARTUP_INTERRUPTED` and returns :data:`EXIT_INTERRUPTED`."""
-    interrupted = threading.Event()
+    """Import the commands, then run one (:func:`mjsuff.cli.commands.run_command`); a Ctrl-C before
+    they are imported prints :data:`STARTUP_INTERRUPTED` and returns :data:`EXIT_INTERRUPTED`.
 
-    def interrupt(signum: int, frame: Any) -> None:
-        interrupted.set()
+    Only a Ctrl-C that would raise ``KeyboardInterrupt`` anyway is taken over (SIGINT's handler
+    is a Python function, in the main thread): an ignored SIGINT stays ignored."""
+    interrupted = False
+
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        nonlocal interrupted
+        interrupted = True
         raise KeyboardInterrupt
 
-    in_main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, interrupt) if in_main_thread else None
+    previous = signal.getsignal(signal.SIGINT)
+    replace = callable(previous) and threading.current_thread() is threading.main_thread()
+    if replace:
+        signal.signal(signal.SIGINT, interrupt)
     try:
         from mjsuff.cli.commands import run_command
-    except KeyboardInterrupt:
+    except BaseException:
+        # A Ctrl-C can surface as a KeyboardInterrupt or, inside an extension module's
+        # initialization, as an ImportError or SystemError: whatever it was, it is the Ctrl-C.
+        if not interrupted:
+            raise
         return _startup_interrupted()
-    except ImportError:
-        # A Ctrl-C inside an extension module's initialization surfaces as an ImportError.
-        if interrupted.is_set():
-            return _startup_interrupted()
-        raise
     finally:
-        if in_main_thread:
+        if replace:
             signal.signal(signal.SIGINT, previous)
-    if interrupted.is_set():
+    if interrupted:
         # Swallowed inside an import (some libraries catch exceptions around optional imports).
         return _startup_interrupted()
     return run_command(argv)

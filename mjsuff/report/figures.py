@@ -23,6 +23,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from mjsuff.atomic import atomic_write
 from mjsuff.experiment.measures import evaluated_rows, measure_group
 from mjsuff.report.results import ReportCell, label_texts
 
@@ -124,8 +125,7 @@ def f1_and_demos(cell: ReportCell, path: Path) -> Path:
     ax_demos.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
     fig.suptitle(cell.title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
+    _save(fig, path)
     return path
 
 
@@ -165,8 +165,7 @@ def bound_vs_demos(cells: list[ReportCell], path: Path) -> Path:
     for ax in list(axes.flat)[n:]:
         ax.axis("off")
     fig.tight_layout()
-    fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
+    _save(fig, path)
     return path
 
 
@@ -241,6 +240,13 @@ def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
         va="top",
     )
     fig.tight_layout()
-    fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
+    _save(fig, path)
     return path
+
+
+def _save(fig: Any, path: Path) -> None:
+    """Write ``fig`` to ``path`` (the format its suffix names) whole or not at all, and close it."""
+    try:
+        atomic_write(path, lambda handle: fig.savefig(handle, format=path.suffix[1:], bbox_inches="tight"))
+    finally:
+        plt.close(fig)
