@@ -83,12 +83,7 @@ def measure(
     chosen = [rng.choice(len(group) * len(sw), size=pairs, replace=False) for group in (tail, decisive)]
     samples = np.concatenate([group[c // len(sw)] for group, c in zip((tail, decisive), chosen, strict=True)])
     starts = np.concatenate([c % len(sw) for c in chosen])
-    warm = np.stack(
-        [
-            domain.library.arrays(int(s))[1][domain.library.best(int(s), w[i][None])[1][0]]
-            for i, s in zip(samples, starts, strict=True)
-        ]
-    )
+    warm = library_best_knots(domain, w, samples, starts)
     reference = (
         SamplingPlanner(domain.scene, domain.planner.config.stronger(10))
         .plan(starts, w[samples], np.random.default_rng(2), warm_knots=warm)
@@ -128,6 +123,16 @@ def measure(
     return gap[:pairs], gap[pairs:]
 
 
+def library_best_knots(domain, w: np.ndarray, samples: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """The learner's library's best knots for each (sample, start) pair: a plan's warm start."""
+    return np.stack(
+        [
+            domain.library.arrays(int(s))[1][domain.library.best(int(s), w[i][None])[1][0]]
+            for i, s in zip(samples, starts, strict=True)
+        ]
+    )
+
+
 def print_bound_cost(domain, post, nevd, v_star, down, count, mu_robot, mu_rand, suff) -> None:
     """The nEVD bound before and after the first ``count`` samples of ``down`` (the samples from
     the bound's order statistic down) get ``V*_i`` raised to a 10×-budget plan from every
@@ -136,12 +141,7 @@ def print_bound_cost(domain, post, nevd, v_star, down, count, mu_robot, mu_rand,
     decisive, below = down[:count], down[count:]
     samples = np.repeat(decisive, len(sw))
     starts = np.tile(np.arange(len(sw)), len(decisive))
-    warm = np.stack(
-        [
-            domain.library.arrays(int(s))[1][domain.library.best(int(s), w[i][None])[1][0]]
-            for i, s in zip(samples, starts, strict=True)
-        ]
-    )
+    warm = library_best_knots(domain, w, samples, starts)
     t = time.perf_counter()
     reference = (
         SamplingPlanner(domain.scene, domain.planner.config.stronger(10))
