@@ -175,6 +175,13 @@ def budget(text: str) -> tuple[int, int]:
     return int(parts[0]), int(parts[1])
 
 
+def sample_count(text: str) -> int:
+    """``--bound-cost``'s K: a whole number of samples, ≥ 0 (0: not measured)."""
+    if not text.isdigit():
+        raise argparse.ArgumentTypeError(f"expected a whole number of samples >= 0, e.g. 5; got {text!r}")
+    return int(text)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
@@ -203,7 +210,7 @@ def main() -> None:
     )
     parser.add_argument(
         "--bound-cost",
-        type=int,
+        type=sample_count,
         default=0,
         metavar="K",
         help="also plan the K samples from the bound's order statistic down from every start "
