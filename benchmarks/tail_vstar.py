@@ -5,7 +5,7 @@ the shipped settings (the scenario files, replicates 0..N-1's instances, one dem
 each sample's ``V*_i − V_rand``. Target (issue #17): mean ≤ 1%, max ≤ 3%.
 
     python benchmarks/tail_vstar.py [--scenes lava_reacher lander] [--pairs 16] [--instances 1]
-        [--first-instance 0] [--set KEY=VALUE] [--own-budgets 16x24 24x48]
+        [--first-instance 0] [--set KEY=VALUE] [--own-budgets 16x24 24x48] [--bound-cost K]
 
 
 The bound is the α-VaR of nEVD over posterior samples; an underestimated ``V*_i`` lowers that
