@@ -185,7 +185,10 @@ def main() -> None:
     with ProcessPoolExecutor(
         args.workers, initializer=os.environ.__setitem__, initargs=(SIM_THREADS_ENV, threads)
     ) as pool:
-        results = list(pool.map(run_one, *zip(*jobs, strict=True)))
+        results = []
+        for r in pool.map(run_one, *zip(*jobs, strict=True)):  # in order, each as it is done
+            results.append(r)
+            print(f"replicate {r['replicate']} done ({r['seconds']:.0f} s): {r}", flush=True)
     print(f"{args.scene}, seed {args.seed}, replicates {args.replicates} ({time.perf_counter() - t0:.0f} s)")
     if variants:
         print(
