@@ -19,11 +19,14 @@ largest raise (in units of that start's ``V* − V_rand``), how far the variant'
 the scenario's (mean over starts, same units), and the seconds it took.
 
 With ``--re-search``, when the replicate ends a truth search at the scenario's budget (its own
-randomness) runs once more, from a copy of the *end* library: the best of everything, raised
-truth included. What it still gains over the end truth (the rows' truth) says whether that truth
-is converged: printed are the starts it beats by more than a thousandth, the largest gain (units
-of that start's ``V* − V_rand``), and the shift it would make in a near-optimal policy's true nEVD (the
-start-weighted gain over the start-weighted ``V* − V_rand``).
+randomness) runs once more, from a copy of the *end* library: everything the learner simulated,
+the plans that raised the truth among them (the first truth's own plans are not in it, so at a
+start the replicate did not raise this is a second, independent truth search). What it still
+gains over the end truth (the rows' truth) says whether that truth is converged: printed are the
+starts it beats by more than a thousandth, the largest gain (units of that start's
+``V* − V_rand``) at the starts the replicate raised and at the others, and the shift it would
+make in a near-optimal policy's true nEVD (the start-weighted gain over the start-weighted
+``V* − V_rand``).
 
 Use design seeds only (not a seed reported as evidence):
 
@@ -91,9 +94,9 @@ class _Truths:
 NOTICEABLE = 1e-3
 
 
-def re_search(domain, end_truth: np.ndarray, seed: int, replicate: int) -> dict:
+def re_search(domain, end_truth: np.ndarray, raised: np.ndarray, seed: int, replicate: int) -> dict:
     """A truth search at the scenario's budget from a copy of the end library; what it gains
-    over ``end_truth`` ``(S,)``."""
+    over ``end_truth`` ``(S,)`` (``raised``: the starts the replicate raised, ``(S,)`` bool)."""
     t0 = time.perf_counter()
     w = domain.true_weights
     values = true_start_values(
@@ -108,9 +111,11 @@ def re_search(domain, end_truth: np.ndarray, seed: int, replicate: int) -> dict:
     span = np.maximum(end_truth - domain.random_start_feature_expectations() @ w, 1e-12)
     gain = np.maximum(values - end_truth, 0.0)
     weights = domain.start_weights
+    share = gain / span
     return {
-        "starts": int(np.sum(gain / span > NOTICEABLE)),
-        "largest": float(np.max(gain / span)),
+        "starts": int(np.sum(share > NOTICEABLE)),
+        "largest_raised": float(np.max(share[raised], initial=0.0)),
+        "largest_other": float(np.max(share[~raised], initial=0.0)),
         "nevd_shift": float(weights @ gain / (weights @ span)),
         "seconds": time.perf_counter() - t0,
     }
@@ -148,9 +153,10 @@ def run_one(
             }
         )
     end_truth = np.maximum(shipped, best)
+    raised = best > shipped + 1e-12 * (1 + np.abs(shipped))  # as ``_Truth.raise_to`` counts
     return {
         "replicate": replicate,
-        "re_search": re_search(domain, end_truth, seed, replicate) if again else None,
+        "re_search": re_search(domain, end_truth, raised, seed, replicate) if again else None,
         "rows_raised_starts": int(rows[-1]["truth_raised_starts"]),
         "rows_raise": float(rows[-1]["truth_raise"]),
         "seconds": time.perf_counter() - t0,
@@ -179,6 +185,8 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
     variants = [parse_variant(v) for v in args.variants]
+    if not variants and not args.re_search:
+        parser.error("nothing to compute: give --variants, --re-search or both")
     t0 = time.perf_counter()
     jobs = [(args.scene, args.seed, r, variants, args.set, args.re_search) for r in args.replicates]
     threads = str(max(1, (os.cpu_count() or 1) // args.workers))  # MuJoCo's rollout threads, shared
@@ -206,14 +214,15 @@ def main() -> None:
     if args.re_search:
         print(
             "\n| replicate | rows: starts raised / largest | re-search: starts gaining > 0.001 "
-            "| largest gain | true-nEVD shift | s |"
+            "| largest gain at a raised start | at another | true-nEVD shift | s |"
         )
-        print("| --- | --- | --- | --- | --- | --- |")
+        print("| --- | --- | --- | --- | --- | --- | --- |")
         for r in results:
             a = r["re_search"]
             print(
                 f"| {r['replicate']} | {r['rows_raised_starts']} / {r['rows_raise']:.4f} | {a['starts']} "
-                f"| {a['largest']:.4f} | {a['nevd_shift']:+.4f} | {a['seconds']:.0f} |"
+                f"| {a['largest_raised']:.4f} | {a['largest_other']:.4f} | {a['nevd_shift']:+.4f} "
+                f"| {a['seconds']:.0f} |"
             )
     for i, name in enumerate(args.variants):
         counts = [r["variants"][i]["raised_starts"] for r in results]
