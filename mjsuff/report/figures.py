@@ -230,7 +230,8 @@ def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
                 label=", ".join(filter(None, (f"ε = {eps:g}", series))),
             )
         ax.set(xlabel="share of poor demos", title=title, ylim=(-0.02, 1.05))
-    axes[-1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    # Long handles: in a short one the marker covers the gap that tells a dashed series apart.
+    axes[-1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5), handlelength=4)
     axes[-1].annotate(
         "no point: no truly insufficient step",
         (0.02, 0.95),
