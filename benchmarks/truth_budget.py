@@ -89,9 +89,15 @@ class _Truths:
         pass
 
 
-#: A re-search's gain at a start counts when above this share of its V* − V_rand (below it: the
-#: last polishing digits a search from the same plans always finds).
+#: A re-search's gain at a start counts when above this share of its V* − V_rand (below it:
+#: polishing digits, not another basin).
 NOTICEABLE = 1e-3
+
+
+def beaten(truth: np.ndarray, best: np.ndarray) -> np.ndarray:
+    """Per start ``(S,)``: ``best`` lies above ``truth`` by more than rounding (the rule
+    ``_Truth.raise_to`` counts raised starts by)."""
+    return best - truth > 1e-12 * (1 + np.abs(truth))
 
 
 def re_search(domain, end_truth: np.ndarray, raised: np.ndarray, seed: int, replicate: int) -> dict:
@@ -142,7 +148,7 @@ def run_one(
     for (scale, cloud), values, seconds in zip(variants, truths.values, truths.seconds, strict=True):
         scale_ = np.maximum(values - v_rand, 1e-12)
         gain = np.maximum(best - values, 0.0)
-        raised = gain > 1e-12 * (1 + np.abs(values))
+        raised = beaten(values, best)
         out.append(
             {
                 "variant": f"{scale:g}x{cloud}",
@@ -153,7 +159,7 @@ def run_one(
             }
         )
     end_truth = np.maximum(shipped, best)
-    raised = best > shipped + 1e-12 * (1 + np.abs(shipped))  # as ``_Truth.raise_to`` counts
+    raised = beaten(shipped, best)
     return {
         "replicate": replicate,
         "re_search": re_search(domain, end_truth, raised, seed, replicate) if again else None,
