@@ -12,17 +12,17 @@ from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-__all__ = ["Demo", "Domain", "Policy", "__version__"]
+__all__ = ["Demo", "Domain", "FinalTruth", "Policy", "__version__"]
 
 if TYPE_CHECKING:  # type checkers see the names themselves (and a misspelt one is an error)
-    from mjsuff.domain import Demo, Domain, Policy
+    from mjsuff.domain import Demo, Domain, FinalTruth, Policy
 else:
 
     def __getattr__(name: str) -> Any:
-        """``Demo``, ``Domain`` and ``Policy`` are imported on first use, so that ``import
+        """``Demo``, ``Domain``, ``FinalTruth`` and ``Policy`` are imported on first use, so that ``import
         mjsuff`` (and the command line's entry point, :mod:`mjsuff.cli.entry`) imports nothing
         heavy."""
-        if name in ("Demo", "Domain", "Policy"):
+        if name in ("Demo", "Domain", "FinalTruth", "Policy"):
             import mjsuff.domain
 
             return getattr(mjsuff.domain, name)

@@ -45,6 +45,28 @@ class Demo:
     data: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+#: A search of the truth at the replicate's end that raises no evaluation start by more than this
+#: share of its ``V* − V_rand`` leaves it settled (polishing digits, not another basin: a
+#: twentieth of the smallest ε even were every start raised by it).
+TRUTH_SETTLED = 1e-3
+
+
+@dataclass(frozen=True)
+class FinalTruth:
+    """Ground truth ``V*_{w*}(s)`` per evaluation start when a replicate ends.
+
+    Attributes:
+        values: ``(S,)``; the replicate keeps the larger of these and the truth it began with.
+        passes: Searches run again when the replicate ended (0: none).
+        last_gain: The last search's largest raise, as a share of ``V* − V_rand`` at its start
+            (settled when at most ``TRUTH_SETTLED``).
+    """
+
+    values: np.ndarray
+    passes: int = 0
+    last_gain: float = 0.0
+
+
 class Domain(abc.ABC):
     """A randomized task instance with linear rewards, seen through feature expectations."""
 
@@ -151,6 +173,12 @@ class Domain(abc.ABC):
         """The best value under ``w`` ``(k,)`` of any trajectory the instance has simulated from
         each evaluation start ``(S,)``; −inf where nothing is kept (exact domains)."""
         return np.full(len(self.start_weights), -np.inf)
+
+    def final_true_start_values(self) -> FinalTruth:
+        """What raises ground truth when the replicate ends: ``best_simulated_start_values``
+        under ``w*`` (scenes may search again from there, ``planning.truth_passes``). Exact
+        domains: −inf, their truth is never raised."""
+        return FinalTruth(self.best_simulated_start_values(self.true_weights))
 
     def simulation_stats(self) -> dict[str, int]:
         """Counts of the simulation behind this instance so far, for the run's report (the

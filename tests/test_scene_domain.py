@@ -9,9 +9,10 @@ import copy
 import numpy as np
 import pytest
 
-from mjsuff.domain import Demo
+from mjsuff.domain import TRUTH_SETTLED, Demo
 from mjsuff.domains import REGISTRY, get_domain
 from mjsuff.posterior import SamplerConfig, grid_posterior, sample_posterior
+from mjsuff.scenes.truth import search_truth
 from mjsuff.sphere import random_unit_vectors
 
 SCENES = sorted(n for n, spec in REGISTRY.items() if spec.kind == "scene")
@@ -321,6 +322,44 @@ def test_ground_truth_is_not_beaten_by_the_learners_plans_near_w_star():
         v = -np.abs(v) / np.linalg.norm(v)  # inside the prior's orthant
         values = domain.start_feature_expectations(domain.plan(v)) @ w
         assert np.all(values <= truth + 0.01 * scale), (v, values - truth)
+
+
+def test_final_truth_without_searches_is_the_best_simulated():
+    domain = small_domain("lava_reacher", seed=21)
+    truth = domain.true_optimal_start_values().copy()
+    domain.plan(domain.true_weights)  # the learner's plans join its library
+    final = domain.final_true_start_values()
+    best = domain.best_simulated_start_values(domain.true_weights)
+    np.testing.assert_array_equal(final.values, np.maximum(truth, best))
+    assert (final.passes, final.last_gain) == (0, 0.0)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_final_truth_searches_again_until_it_settles(name):
+    """``planning.truth_passes``: when the replicate ends, the truth searches again from its own
+    plans and the learner's best until a search raises no start by more than TRUTH_SETTLED. A
+    further, independent search from there then gains at most 1% of V* − V_rand at any start
+    (the tolerance of the truth-against-learner test above: the searches are stochastic)."""
+    domain = small_domain(name, seed=23, planning={**SMALL_PLANNING, "truth_passes": 4})
+    w = domain.true_weights
+    first = domain.true_optimal_start_values().copy()
+    domain.plan(w)
+    best = domain.best_simulated_start_values(w)
+    final = domain.final_true_start_values()
+    assert np.all(final.values >= np.maximum(first, best))
+    assert 1 <= final.passes <= 4
+    assert final.last_gain <= TRUTH_SETTLED or final.passes == 4
+    scale = final.values - domain.random_start_feature_expectations() @ w
+    again = search_truth(
+        domain.scene,
+        copy.deepcopy(domain._truth_library),
+        w,
+        domain.planner.config,
+        domain.planning,
+        None,
+        np.random.default_rng(24),
+    )
+    assert np.all(again <= final.values + 0.01 * scale), (again - final.values) / scale
 
 
 def test_bad_demo_features_are_a_clear_error(case):

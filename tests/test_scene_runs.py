@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from mjsuff.cli import main
+from mjsuff.domain import TRUTH_SETTLED
 from mjsuff.experiment.run_summary import RECORDING
 from mjsuff.recording import Recording
 from mjsuff.scenes.domain import SceneDomain
@@ -35,6 +36,8 @@ TINY = [
     "domain.params.planning.seed_directions=1",
     "--set",
     "domain.params.planning.truth_scale=1.0",
+    "--set",
+    "domain.params.planning.truth_passes=2",
     "--set",
     "rules.validation_intervals=[2]",
     "--set",
@@ -64,12 +67,15 @@ def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
     report = json.loads((tmp_path / "a" / "run.json").read_text())
     assert report["simulated_steps"] == counts["simulated_steps"].iloc[-1]
     assert report["diverged_rollouts"] == counts["diverged_rollouts"].iloc[-1]
-    # ... and how its ground truth was raised (one replicate: its own row values).
+    # ... and how its ground truth was raised and searched again (one replicate: its row values).
     last = steps.iloc[-1]
+    assert 1 <= last["truth_passes"] <= 2
     assert report["truth"] == {
         "raised_replicates": int(last["truth_raised_starts"] > 0),
         "raised_starts": int(last["truth_raised_starts"]),
         "largest_raise": float(last["truth_raise"]),
+        "searches": int(last["truth_passes"]),
+        "unsettled_replicates": int(last["truth_last_gain"] > TRUTH_SETTLED),
     }
     # The run's recording shows the scene, each demo (playable on sim_time) and π_MAP.
     recording = Recording(tmp_path / "a" / RECORDING)

@@ -184,15 +184,7 @@ def print_summary(
             f"MuJoCo: {simulation['simulated_steps']:,} steps simulated; "
             f"{simulation['diverged_rollouts']:,} diverged rollouts detected and never scored"
         )
-        truth = result.truth
-        raised = truth.get("raised_replicates", 0)
-        say(
-            f"Ground truth: raised at the end of {raised} of {result.completed} replicates to the "
-            f"best they simulated under w* ({truth['raised_starts']} evaluation starts; by at most "
-            f"{truth['largest_raise']:.3f} of V* − V_rand)"
-            if raised
-            else "Ground truth: never raised (nothing the replicates simulated under w* beat it)"
-        )
+        say(truth_line(result.truth, result.completed))
     sampler = result.sampler
     if sampler.get("posteriors"):
         capped = sampler["unconverged_posteriors"]
@@ -241,3 +233,25 @@ def summary_table(result: RunResult, thresholds: list[float]) -> Table:
             fmt(e["policy_optimality"]),
         )
     return table
+
+
+def truth_line(truth: dict[str, Any], completed: int) -> str:
+    """The run's ground truth in one line: how often the replicates' ends raised it, and how its
+    searches again went (``run_summary.truth_totals``)."""
+    raised = truth.get("raised_replicates", 0)
+    line = (
+        f"Ground truth: raised at the end of {raised} of {completed} replicates ("
+        f"{truth['raised_starts']} evaluation starts; by at most {truth['largest_raise']:.3f} of "
+        "V* − V_rand)"
+        if raised
+        else "Ground truth: never raised (nothing the replicates simulated under w* beat it)"
+    )
+    searches = truth.get("searches", 0)
+    if searches:
+        unsettled = truth.get("unsettled_replicates", 0)
+        line += f"; searched again {searches} times, " + (
+            f"still rising at the last search in {unsettled} replicates"
+            if unsettled
+            else "settled in every replicate"
+        )
+    return line

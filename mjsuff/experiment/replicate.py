@@ -97,7 +97,7 @@ class _Truth:
     ``V*_{w*}`` per evaluation start comes from ``Domain.true_optimal_start_values`` (a larger
     budget) and is raised to the policy's own value where a policy beats it, so a true nEVD is
     never negative. When the replicate ends, :meth:`raise_to` lifts it to the best of everything
-    the replicate simulated under ``w*`` (``Domain.best_simulated_start_values``) and every
+    the replicate simulated under ``w*`` (``Domain.final_true_start_values``) and every
     policy's values are recomputed: a truth nothing the replicate found beats.
     """
 
@@ -350,6 +350,8 @@ def run_replicate(
             **_simulation_columns(domain),
             "truth_raised_starts": 0,  # set when the replicate ends (the truth is raised then)
             "truth_raise": 0.0,
+            "truth_passes": 0,
+            "truth_last_gain": 0.0,
         }
         step_rows = _decide(rules, evidence, truth, shared, scored)
         rows += step_rows
@@ -369,10 +371,13 @@ def run_replicate(
 
 def _rescore(domain: Domain, truth: _Truth, rows: list[StepRow], scored: list[tuple[Policy, bool]]) -> None:
     """The truth nothing beats: raised to the best of everything the replicate simulated under
-    w*, and every row scored again against it (``scored``: each row's policy, and whether PIOB
+    w* (and searched again from there, ``Domain.final_true_start_values``), and every row
+    scored again against it (``scored``: each row's policy, and whether PIOB
     is its truth)."""
-    raised = truth.raise_to(domain.best_simulated_start_values(domain.true_weights))
+    final = domain.final_true_start_values()
+    raised = truth.raise_to(final.values)
     for row, (policy, measures_improvement) in zip(rows, scored, strict=True):
         row.true_nevd, row.true_piob, row.policy_optimality = truth(policy)
         row.true_value = row.true_piob if measures_improvement else row.true_nevd
         row.truth_raised_starts, row.truth_raise = raised
+        row.truth_passes, row.truth_last_gain = final.passes, final.last_gain

@@ -18,6 +18,7 @@ import pandas as pd
 
 from mjsuff import __version__
 from mjsuff.atomic import atomic_write_parquet
+from mjsuff.domain import TRUTH_SETTLED
 from mjsuff.experiment.measures import sampler_diagnostics, summarize
 from mjsuff.experiment.results import read_steps, replicate_path, write_json
 from mjsuff.experiment.scenario import Scenario
@@ -65,18 +66,27 @@ def simulation_totals(steps: pd.DataFrame) -> dict[str, int]:
 
 def truth_totals(steps: pd.DataFrame) -> dict[str, Any]:
     """Ground truth raised at the end of a replicate (a scene's, to the best of everything the
-    replicate simulated under ``w*``) over the finished replicates: in how many, at how many
-    evaluation starts in all, and the largest raise (a share of ``V* − V_rand`` at its start).
-    An exact domain's truth is never raised."""
+    replicate simulated under ``w*``, then searched again) over the finished replicates: in how
+    many, at how many evaluation starts in all, the largest raise (a share of ``V* − V_rand`` at
+    its start), the searches run again in all, and the replicates whose last search still raised
+    a start by more than ``TRUTH_SETTLED`` (unsettled). An exact domain's truth is never raised."""
+    totals: dict[str, Any] = {"raised_replicates": 0, "raised_starts": 0, "largest_raise": 0.0}
     columns = ["truth_raised_starts", "truth_raise"]
     if steps.empty or not all(c in steps for c in columns):
-        return {"raised_replicates": 0, "raised_starts": 0, "largest_raise": 0.0}
+        return totals | {"searches": 0, "unsettled_replicates": 0}
     last = steps.groupby("replicate")[columns].max()
-    return {
+    totals = {
         "raised_replicates": int((last["truth_raised_starts"] > 0).sum()),
         "raised_starts": int(last["truth_raised_starts"].sum()),
         "largest_raise": float(last["truth_raise"].max()),
     }
+    searched = ["truth_passes", "truth_last_gain"]
+    if not all(c in steps for c in searched):  # a run from before the searches
+        return totals | {"searches": 0, "unsettled_replicates": 0}
+    ends = steps.groupby("replicate")[searched].max()
+    unsettled = (ends["truth_passes"] > 0) & (ends["truth_last_gain"] > TRUTH_SETTLED)
+    searches = int(ends["truth_passes"].sum())
+    return totals | {"searches": searches, "unsettled_replicates": int(unsettled.sum())}
 
 
 def sampler_totals(steps: pd.DataFrame) -> dict[str, Any]:
@@ -259,6 +269,8 @@ def finalize_sweep(
         "raised_replicates": sum(c.result.truth.get("raised_replicates", 0) for c in results),
         "raised_starts": sum(c.result.truth.get("raised_starts", 0) for c in results),
         "largest_raise": max((c.result.truth.get("largest_raise", 0.0) for c in results), default=0.0),
+        "searches": sum(c.result.truth.get("searches", 0) for c in results),
+        "unsettled_replicates": sum(c.result.truth.get("unsettled_replicates", 0) for c in results),
     }
     write_json(
         directory / "run.json",

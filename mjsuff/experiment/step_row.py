@@ -59,9 +59,17 @@ class StepRow:
     diverged_rollouts: int = _column("MuJoCo scenes: rollouts detected as diverged and never scored so far")
     truth_raised_starts: int = _column(
         "evaluation starts whose true V* the replicate raised at its end to a better trajectory it "
-        "simulated under w* (the same for every row of a replicate)"
+        "simulated under w* or its truth found searching again (the same for every row of a replicate)"
     )
     truth_raise: float = _column("the largest such raise, as a share of V* − V_rand at that start")
+    truth_passes: int = _column(
+        "MuJoCo scenes: searches ground truth ran again at the replicate's end, from its own plans "
+        "and the replicate's best (`planning.truth_passes`; 0: none)"
+    )
+    truth_last_gain: float = _column(
+        "the last of those searches' largest raise, a share of V* − V_rand (at most 0.001: the "
+        "truth settled; 0 without searches)"
+    )
 
     def as_dict(self) -> dict[str, Any]:
         """The row as ``{column: value}``, in column order (one record of the parquet file)."""

@@ -30,18 +30,20 @@ log-sum-exp per demo.
 ``optimal_start_values`` is the library's best, refined where the bound is decided
 (``mjsuff.scenes.vstar``); plans (π for a reward) are polished by the local quadratic model for
 their reward (``mjsuff.scenes.search``); ground truth is planned harder, on a copy of the library
-(``mjsuff.scenes.truth``), and the replicate raises it to the best of everything it simulated.
+(``mjsuff.scenes.truth``), and the replicate raises it to the best of everything it simulated
+(and, with ``planning.truth_passes``, searches again from there until it settles).
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from scipy.special import logsumexp
 
-from mjsuff.domain import BoundIndex, Demo, Domain
+from mjsuff.domain import BoundIndex, Demo, Domain, FinalTruth
 from mjsuff.scenes.candidates import CandidateSets
 from mjsuff.scenes.library import TrajectoryLibrary
 from mjsuff.scenes.params import Candidates, SceneParams
@@ -49,7 +51,7 @@ from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.search import library_warm, polish_library
-from mjsuff.scenes.truth import true_start_values
+from mjsuff.scenes.truth import converge_truth, search_truth
 from mjsuff.scenes.vstar import LibraryVStar
 from mjsuff.sphere import random_negative_unit_vectors
 
@@ -159,8 +161,10 @@ class SceneDomain(Domain):
         self._planned_for: dict[bytes, np.ndarray] = {}
         self._pool_plans: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._truth: np.ndarray | None = None
+        self._truth_library: TrajectoryLibrary | None = None
+        self._final_truth: FinalTruth | None = None
         # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
-        self._truth_seed = int(rng.integers(2**63))
+        self._truth_rng = np.random.default_rng(int(rng.integers(2**63)))
 
     def _add_uniform_trajectories(self, rng: np.random.Generator) -> np.ndarray:
         """``RANDOM_TRAJECTORIES`` uniform splines from every start into the library; their
@@ -323,16 +327,40 @@ class SceneDomain(Domain):
         (``mjsuff.scenes.truth``); the replicate raises it to anything better it simulates
         later (``best_simulated_start_values``)."""
         if self._truth is None:
-            self._truth = true_start_values(
+            self._truth_library = copy.deepcopy(self.library)
+            self._truth = search_truth(
                 self.scene,
-                self.library,
+                self._truth_library,
                 self.true_weights,
                 self.planner.config,
                 self.planning,
                 self.expert,
-                np.random.default_rng(self._truth_seed),
+                self._truth_rng,
             )
         return self._truth
+
+    def final_true_start_values(self) -> FinalTruth:
+        """Ground truth when the replicate ends: the first truth raised to the best of
+        everything simulated under ``w*``, then searched again from there until it settles,
+        at most ``planning.truth_passes`` times (``mjsuff.scenes.truth.converge_truth``).
+        Computed once, at the first call."""
+        if self._final_truth is not None:
+            return self._final_truth
+        truth = self.true_optimal_start_values()
+        assert self._truth_library is not None
+        values, passes, gain = converge_truth(
+            self.scene,
+            self._truth_library,
+            self.library,
+            truth,
+            self.true_weights,
+            self._random_mu @ self.true_weights,
+            self.planner.config,
+            self.planning,
+            self._truth_rng,
+        )
+        self._final_truth = FinalTruth(values, passes, gain)
+        return self._final_truth
 
     def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:
         """The best value under ``w`` of everything simulated from each evaluation start so far

@@ -77,6 +77,14 @@ class PlanningSettings(BaseModel):
         ge=1.0,
         description="ground truth plans w* with about this × the planner's budget (PlannerConfig.stronger)",
     )
+    truth_passes: int = Field(
+        0,
+        ge=0,
+        le=16,
+        description="when a replicate ends, ground truth searches again, from its own plans and the "
+        "learner's best under w*, until a search raises no evaluation start by more than 0.001 of "
+        "V* − V_rand, at most this many times (0: only raised to the best simulated)",
+    )
 
     def resolved(
         self, planner: PlannerConfig, refine: PlannerConfig, seed: PlannerConfig

@@ -1,9 +1,10 @@
 """Ground truth of a scene instance: ``V*_{w*}(s)`` per evaluation start, planned harder than the
 learner ever plans, from a copy of its library and with randomness of its own.
 
-Nothing of ``w*`` reaches the learner's library, warm starts or refinement record. The replicate
-raises the value later to anything better it simulates under ``w*``
-(``SceneDomain.best_simulated_start_values``), so the truth is the best of everything.
+Nothing of ``w*`` reaches the learner's library, warm starts or refinement record. When the
+replicate ends, the truth is raised to anything better it simulated under ``w*`` and, with
+``planning.truth_passes``, searched again from there until a pass gains nothing
+(:func:`converge_truth`), so the truth is the best of everything.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from mjsuff.domain import TRUTH_SETTLED
 from mjsuff.scenes.library import TrajectoryLibrary
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planner_config import PlannerConfig
@@ -46,14 +48,28 @@ def true_start_values(
     rng: np.random.Generator,
     cloud: int = TRUTH_CLOUD,
 ) -> np.ndarray:
-    """``V*_{w*}(s)`` ``(S,)``: the best under ``w*`` of a copy of ``learner_library`` after
-    ``cloud`` rewards around ``w*`` are planned from every start with the planner's budget
-    (``planner``), then ``w*`` by three searches, each from the best found so far and with
-    ``planning.truth_scale`` × its budget (the seed planner's wide one, the planner's CMA-ES with a
-    broad step, the planner itself), the local quadratic model's proposals until they stop
-    improving, and, when there is an expert, its best demo from every evaluation start (a
-    demonstrator that is never asked there in the run)."""
+    """``V*_{w*}(s)`` ``(S,)``: :func:`search_truth` from a copy of ``learner_library``."""
     library = copy.deepcopy(learner_library)
+    return search_truth(scene, library, true_weights, planner, planning, expert, rng, cloud)
+
+
+def search_truth(
+    scene: Scene,
+    library: TrajectoryLibrary,
+    true_weights: np.ndarray,
+    planner: PlannerConfig,
+    planning: PlanningSettings,
+    expert: Expert | None,
+    rng: np.random.Generator,
+    cloud: int = TRUTH_CLOUD,
+) -> np.ndarray:
+    """``V*_{w*}(s)`` ``(S,)``: the best under ``w*`` of ``library`` (which gains every plan: never
+    pass the learner's own) after ``cloud`` rewards around ``w*`` are planned from every start
+    with the planner's budget (``planner``), then ``w*`` by three searches, each from the best
+    found so far and with ``planning.truth_scale`` × its budget (the seed planner's wide one, the
+    planner's CMA-ES with a broad step, the planner itself), the local quadratic model's
+    proposals until they stop improving, and, when there is an expert, its best demo from every
+    evaluation start (a demonstrator that is never asked there in the run)."""
     k = len(true_weights)
     starts = np.arange(len(scene.starts))
     w = np.tile(true_weights, (len(starts), 1))
@@ -83,3 +99,43 @@ def true_start_values(
             demo = best.demonstrate(scene.starts[s], true_weights, rng)
             library.add_features(int(s), demo.features)
     return np.array([library.best_value(int(s), w[:1])[0] for s in starts])
+
+
+def converge_truth(
+    scene: Scene,
+    truth_library: TrajectoryLibrary,
+    learner_library: TrajectoryLibrary,
+    truth: np.ndarray,
+    true_weights: np.ndarray,
+    v_rand: np.ndarray,
+    planner: PlannerConfig,
+    planning: PlanningSettings,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, int, float]:
+    """Ground truth when a replicate ends, searched to a fixed point: the learner's best
+    trajectory under ``w*`` from every evaluation start joins ``truth_library`` (the first
+    search's), then :func:`search_truth` runs on it again (no expert) until a pass raises no
+    start by more than ``TRUTH_SETTLED`` of its ``V* − V_rand`` (``v_rand`` ``(S,)``), at most
+    ``planning.truth_passes`` times.
+
+    Returns the values ``(S,)`` (at least ``truth`` and the learner's best), the passes run and
+    the last pass's largest gain (a share of ``V* − V_rand``; above ``TRUTH_SETTLED``: not
+    converged within the passes allowed).
+    """
+    starts = range(len(scene.starts))
+    w = true_weights[None]
+    for s in starts:
+        features, knots = learner_library.arrays(s)
+        if len(features):
+            best = int(np.argmax(features @ true_weights))
+            truth_library.add(s, features[best : best + 1], knots[best : best + 1])
+    values = np.maximum(truth, [learner_library.best_value(s, w)[0] for s in starts])
+    passes, gain = 0, 0.0
+    while passes < planning.truth_passes:
+        found = search_truth(scene, truth_library, true_weights, planner, planning, None, rng)
+        passes += 1
+        gain = float(np.max((found - values) / np.maximum(values - v_rand, 1e-12), initial=0.0))
+        values = np.maximum(values, found)
+        if gain <= TRUTH_SETTLED:
+            break
+    return values, passes, gain
