@@ -324,19 +324,21 @@ class SceneDomain(Domain):
 
     def true_optimal_start_values(self) -> np.ndarray:
         """``V*_{w*}(s)`` per evaluation start ``(S,)`` before the replicate runs, computed once
-        (``mjsuff.scenes.truth``); the replicate raises it to anything better it simulates
-        later (``best_simulated_start_values``)."""
+        (``mjsuff.scenes.truth``); the replicate raises it when it ends
+        (:meth:`final_true_start_values`)."""
         if self._truth is None:
-            self._truth_library = copy.deepcopy(self.library)
+            library = copy.deepcopy(self.library)
             self._truth = search_truth(
                 self.scene,
-                self._truth_library,
+                library,
                 self.true_weights,
                 self.planner.config,
                 self.planning,
                 self.expert,
                 self._truth_rng,
             )
+            if self.planning.truth_passes:  # its plans are where the searches at the end begin
+                self._truth_library = library
         return self._truth
 
     def final_true_start_values(self) -> FinalTruth:
@@ -347,7 +349,10 @@ class SceneDomain(Domain):
         if self._final_truth is not None:
             return self._final_truth
         truth = self.true_optimal_start_values()
-        assert self._truth_library is not None
+        if self._truth_library is None:  # no searches again
+            best = self.best_simulated_start_values(self.true_weights)
+            self._final_truth = FinalTruth(np.maximum(truth, best))
+            return self._final_truth
         values, passes, gain = converge_truth(
             self.scene,
             self._truth_library,
