@@ -34,7 +34,7 @@ def test_truth_totals_count_the_searches_again_and_the_unsettled_replicates():
     assert totals["searches"] == 5 and totals["unsettled_replicates"] == 1
     line = truth_line(totals, 3)
     assert "raised at the end of 2 of 3 replicates (4 evaluation starts" in line
-    assert line.endswith("searched again 5 times, still rising at the last search in 1 replicates")
+    assert line.endswith("searched again 5 times, still rising at the last search in 1 of 3 replicates")
     settled = truth_line(totals | {"unsettled_replicates": 0}, 3)
     assert settled.endswith("settled in every replicate")
 

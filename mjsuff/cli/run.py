@@ -250,7 +250,7 @@ def truth_line(truth: dict[str, Any], completed: int) -> str:
     if searches:
         unsettled = truth.get("unsettled_replicates", 0)
         line += f"; searched again {searches} times, " + (
-            f"still rising at the last search in {unsettled} replicates"
+            f"still rising at the last search in {unsettled} of {completed} replicates"
             if unsettled
             else "settled in every replicate"
         )
