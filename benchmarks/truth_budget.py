@@ -19,18 +19,18 @@ largest raise (in units of that start's ``V* − V_rand``), how far the variant'
 the scenario's (mean over starts, same units), and the seconds it took.
 
 With ``--re-search``, when the replicate ends a truth search at the scenario's budget (its own
-randomness) runs once more, from a copy of the *end* library: everything the learner simulated,
-the plans that raised the truth among them (the first truth's own plans are not in it, so at a
-start the replicate did not raise this is a second, independent truth search). What it still
-gains over the end truth (the rows' truth) says whether that truth is converged: printed are the
-starts it beats by more than a thousandth, the largest gain (units of that start's
-``V* − V_rand``) at the starts the replicate raised and at the others, and the shift it would
-make in a near-optimal policy's true nEVD (the start-weighted gain over the start-weighted
-``V* − V_rand``). With ``--set domain.params.planning.truth_passes=N`` the rows' truth was
-itself searched again at the replicate's end, from the first truth's plans and the learner's best,
-until it settled (``mjsuff.scenes.truth.converge_truth``; the table prints its searches and its
-last one's gain): the re-search, from the learner's library alone, then asks whether a truth
-settled that way is one an independent search does not beat.
+randomness) runs once more, from a copy of the learner's *end* library: everything the learner
+simulated, the plans with which the learner raised the truth among them (the truth's own plans
+are not in it, so at a start the learner did not raise this is a second, independent truth
+search). What it still gains over the end truth (the rows' truth) says whether that truth is
+converged: printed are the starts it beats by more than a thousandth, the largest gain (units of
+that start's ``V* − V_rand``) at the starts the learner's finds raised and at the others, and
+the shift it would make in a near-optimal policy's true nEVD (the start-weighted gain over the
+start-weighted ``V* − V_rand``). With ``--set domain.params.planning.truth_passes=N`` the rows'
+truth was itself searched again at the replicate's end, from the first truth's plans and the
+learner's best, until it settled (``mjsuff.scenes.truth.converge_truth``; the table prints its
+searches and its last one's gain): the re-search, from the learner's library alone, then asks
+whether a truth settled that way is one an independent search does not beat.
 
 Use design seeds only (not a seed reported as evidence):
 
@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from mjsuff.domain import TRUTH_SETTLED
 from mjsuff.experiment.backend import SIM_THREADS_ENV
 from mjsuff.experiment.replicate import run_replicate
 from mjsuff.experiment.scenario import load_scenario
@@ -94,8 +95,8 @@ class _Truths:
 
 
 #: A re-search's gain at a start counts when above this share of its V* − V_rand (below it:
-#: polishing digits, not another basin).
-NOTICEABLE = 1e-3
+#: polishing digits, not another basin): the rule a settled truth's searches stop by.
+NOTICEABLE = TRUTH_SETTLED
 
 
 def beaten(truth: np.ndarray, best: np.ndarray) -> np.ndarray:
@@ -163,7 +164,7 @@ def run_one(
             }
         )
     end_truth = np.maximum(shipped, domain.final_true_start_values().values)  # the rows' truth
-    raised = beaten(shipped, end_truth)
+    raised = beaten(shipped, best)  # by the learner's finds (the re-search starts from those)
     return {
         "replicate": replicate,
         "re_search": re_search(domain, end_truth, raised, seed, replicate) if again else None,

@@ -47,19 +47,19 @@ class Demo:
 
 #: A search of the truth at the replicate's end that raises no evaluation start by more than this
 #: share of its ``V* − V_rand`` leaves it settled (polishing digits, not another basin: a
-#: twentieth of the smallest ε even were every start raised by it).
+#: hundredth of the smallest ε a scenario uses, 0.1, even were every start raised by it).
 TRUTH_SETTLED = 1e-3
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FinalTruth:
     """Ground truth ``V*_{w*}(s)`` per evaluation start when a replicate ends.
 
     Attributes:
         values: ``(S,)``; the replicate keeps the larger of these and the truth it began with.
         passes: Searches run again when the replicate ended (0: none).
-        last_gain: The last search's largest raise, as a share of ``V* − V_rand`` at its start
-            (settled when at most ``TRUTH_SETTLED``).
+        last_gain: The last search's largest raise at a start, as a share of that start's
+            value before the search minus ``V_rand`` (settled when at most ``TRUTH_SETTLED``).
     """
 
     values: np.ndarray
@@ -175,9 +175,9 @@ class Domain(abc.ABC):
         return np.full(len(self.start_weights), -np.inf)
 
     def final_true_start_values(self) -> FinalTruth:
-        """What raises ground truth when the replicate ends: ``best_simulated_start_values``
-        under ``w*`` (scenes may search again from there, ``planning.truth_passes``). Exact
-        domains: −inf, their truth is never raised."""
+        """What raises ground truth when the replicate ends (call it then: a domain may compute
+        it once): ``best_simulated_start_values`` under ``w*`` (scenes may search again from
+        there, ``planning.truth_passes``). Exact domains: −inf, their truth is never raised."""
         return FinalTruth(self.best_simulated_start_values(self.true_weights))
 
     def simulation_stats(self) -> dict[str, int]:

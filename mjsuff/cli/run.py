@@ -249,7 +249,8 @@ def truth_line(truth: dict[str, Any], completed: int) -> str:
     searches = truth.get("searches", 0)
     if searches:
         unsettled = truth.get("unsettled_replicates", 0)
-        line += f"; searched again {searches} times, " + (
+        times = "once" if searches == 1 else f"{searches} times"
+        line += f"; searched again {times}, " + (
             f"still rising at the last search in {unsettled} of {completed} replicates"
             if unsettled
             else "settled in every replicate"

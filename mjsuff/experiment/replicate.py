@@ -376,7 +376,12 @@ def _rescore(domain: Domain, truth: _Truth, rows: list[StepRow], scored: list[tu
     is its truth)."""
     final = domain.final_true_start_values()
     raised = truth.raise_to(final.values)
+    last_step = max(row.step for row in rows)
+    simulated = _simulation_columns(domain)  # all of it: the last step's scoring, the end searches
     for row, (policy, measures_improvement) in zip(rows, scored, strict=True):
+        if row.step == last_step:
+            for name, value in simulated.items():
+                setattr(row, name, value)
         row.true_nevd, row.true_piob, row.policy_optimality = truth(policy)
         row.true_value = row.true_piob if measures_improvement else row.true_nevd
         row.truth_raised_starts, row.truth_raise = raised

@@ -53,8 +53,9 @@ class StepRow:
         "rules did not stop at this step)"
     )
     simulated_steps: int = _column(
-        "MuJoCo scenes: steps simulated so far in this replicate (expert, planner, V*, truth); 0 "
-        "for tabular domains"
+        "MuJoCo scenes: steps simulated so far in this replicate (expert, planner, V*, truth; the "
+        "last step's rows: all of the replicate's, its scoring and the truth's searches at the end "
+        "included); 0 for tabular domains"
     )
     diverged_rollouts: int = _column("MuJoCo scenes: rollouts detected as diverged and never scored so far")
     truth_raised_starts: int = _column(

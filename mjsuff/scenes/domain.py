@@ -365,6 +365,7 @@ class SceneDomain(Domain):
             self._truth_rng,
         )
         self._final_truth = FinalTruth(values, passes, gain)
+        self._truth_library = None  # a copy of the whole library: free it
         return self._final_truth
 
     def best_simulated_start_values(self, w: np.ndarray) -> np.ndarray:

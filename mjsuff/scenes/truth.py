@@ -3,8 +3,9 @@ learner ever plans, from a copy of its library and with randomness of its own.
 
 Nothing of ``w*`` reaches the learner's library, warm starts or refinement record. When the
 replicate ends, the truth is raised to anything better it simulated under ``w*`` and, with
-``planning.truth_passes``, searched again from there until a pass gains nothing
-(:func:`converge_truth`), so the truth is the best of everything.
+``planning.truth_passes``, searched again from there until a search raises no start by more
+than ``TRUTH_SETTLED`` of its ``V* − V_rand`` (:func:`converge_truth`), so the truth is the best
+of everything.
 """
 
 from __future__ import annotations
@@ -112,23 +113,25 @@ def converge_truth(
     planning: PlanningSettings,
     rng: np.random.Generator,
 ) -> tuple[np.ndarray, int, float]:
-    """Ground truth when a replicate ends, searched to a fixed point: the learner's best
-    trajectory under ``w*`` from every evaluation start joins ``truth_library`` (the first
-    search's), then :func:`search_truth` runs on it again (no expert) until a pass raises no
-    start by more than ``TRUTH_SETTLED`` of its ``V* − V_rand`` (``v_rand`` ``(S,)``), at most
-    ``planning.truth_passes`` times.
+    """Ground truth when a replicate ends, searched until it settles: the learner's best
+    trajectory under ``w*`` with knots from every evaluation start joins ``truth_library`` (the
+    first search's; a better feature-only entry, a demo, raises the values but starts no
+    search), then :func:`search_truth` runs on it again (no expert) until a pass raises no
+    start by more than ``TRUTH_SETTLED`` of its value before the pass minus ``V_rand``
+    (``v_rand`` ``(S,)``), at most ``planning.truth_passes`` times.
 
     Returns the values ``(S,)`` (at least ``truth`` and the learner's best), the passes run and
-    the last pass's largest gain (a share of ``V* − V_rand``; above ``TRUTH_SETTLED``: not
-    converged within the passes allowed).
+    the last pass's largest gain (in those units; above ``TRUTH_SETTLED``: still rising when
+    the passes allowed ran out). A quiet pass is no proof of a fixed point: an independent
+    search can still find another basin (README, "The lander's truth budget").
     """
     starts = range(len(scene.starts))
     w = true_weights[None]
     for s in starts:
-        features, knots = learner_library.arrays(s)
-        if len(features):
-            best = int(np.argmax(features @ true_weights))
-            truth_library.add(s, features[best : best + 1], knots[best : best + 1])
+        value, index = learner_library.best(s, w)
+        if np.isfinite(value[0]):
+            features, knots = learner_library.arrays(s)
+            truth_library.add(s, features[index], knots[index])
     values = np.maximum(truth, [learner_library.best_value(s, w)[0] for s in starts])
     passes, gain = 0, 0.0
     while passes < planning.truth_passes:
