@@ -41,6 +41,7 @@ Use design seeds only (not a seed reported as evidence):
 from __future__ import annotations
 
 import argparse
+import copy
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -53,7 +54,7 @@ from mjsuff.domain import TRUTH_SETTLED
 from mjsuff.experiment.backend import SIM_THREADS_ENV
 from mjsuff.experiment.replicate import run_replicate
 from mjsuff.experiment.scenario import load_scenario
-from mjsuff.scenes.truth import true_start_values
+from mjsuff.scenes.truth import search_truth
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -77,9 +78,9 @@ class _Truths:
             planning = domain.planning.model_copy(update={"truth_scale": scale})
             rng = np.random.default_rng((self.seed, self.replicate, 1 + i))
             self.values.append(
-                true_start_values(
+                search_truth(
                     domain.scene,
-                    domain.library,
+                    copy.deepcopy(domain.library),
                     domain.true_weights,
                     domain.planner.config,
                     planning,
@@ -110,9 +111,9 @@ def re_search(domain, end_truth: np.ndarray, raised: np.ndarray, seed: int, repl
     over ``end_truth`` ``(S,)`` (``raised``: the starts the replicate raised, ``(S,)`` bool)."""
     t0 = time.perf_counter()
     w = domain.true_weights
-    values = true_start_values(
+    values = search_truth(
         domain.scene,
-        domain.library,
+        copy.deepcopy(domain.library),
         w,
         domain.planner.config,
         domain.planning,

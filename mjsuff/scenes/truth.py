@@ -10,7 +10,6 @@ of everything.
 
 from __future__ import annotations
 
-import copy
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,21 +36,6 @@ TRUTH_POLISH_ROUNDS = 64
 #: normalized: about 14° off) with the planner's budget, as the learner does near w*.
 TRUTH_CLOUD = 16
 TRUTH_CLOUD_SPREAD = 0.15
-
-
-def true_start_values(
-    scene: Scene,
-    learner_library: TrajectoryLibrary,
-    true_weights: np.ndarray,
-    planner: PlannerConfig,
-    planning: PlanningSettings,
-    expert: Expert | None,
-    rng: np.random.Generator,
-    cloud: int = TRUTH_CLOUD,
-) -> np.ndarray:
-    """``V*_{w*}(s)`` ``(S,)``: :func:`search_truth` from a copy of ``learner_library``."""
-    library = copy.deepcopy(learner_library)
-    return search_truth(scene, library, true_weights, planner, planning, expert, rng, cloud)
 
 
 def search_truth(
