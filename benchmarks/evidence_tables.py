@@ -26,7 +26,9 @@ import numpy as np
 import pandas as pd
 from scipy.stats import binomtest, wilcoxon
 
+from mjsuff.domain import TRUTH_SETTLED
 from mjsuff.experiment.measures import evaluated_rows, measure_group
+from mjsuff.experiment.run_summary import truth_totals
 
 BOOTSTRAP = 2000
 RULE_NAMES = {
@@ -142,15 +144,25 @@ def rules(steps: pd.DataFrame, epsilon: float) -> str:
 
 
 def truth_raised(steps: pd.DataFrame) -> str:
+    """How the replicates' ends raised the truth and, with ``planning.truth_passes``, how its
+    searches again went (``run_summary.truth_totals``)."""
     per_rep = steps.groupby("replicate")[["truth_raised_starts", "truth_raise"]].max()
     raised = per_rep[per_rep["truth_raised_starts"] > 0]
     if raised.empty:
         return f"Truth raised at the end of 0 of {len(per_rep)} replicates.\n"
-    return (
+    text = (
         f"Truth raised at the end of {len(raised)} of {len(per_rep)} replicates "
         f"(by {raised['truth_raise'].min():.3f}–{raised['truth_raise'].max():.3f} of "
-        f"V* − V_rand; {int(raised['truth_raised_starts'].sum())} evaluation starts in all).\n"
+        f"V* − V_rand; {int(raised['truth_raised_starts'].sum())} evaluation starts in all; "
+        f"by more than {TRUTH_SETTLED:g} in {int((raised['truth_raise'] > TRUTH_SETTLED).sum())}).\n"
     )
+    totals = truth_totals(steps)
+    if totals["searches"]:
+        text += (
+            f"Searched again {totals['searches']} times in all; still rising at the last search "
+            f"in {totals['unsettled_replicates']} of {len(per_rep)} replicates.\n"
+        )
+    return text
 
 
 def shared_checks(
