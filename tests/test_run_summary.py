@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from mjsuff.cli.run import truth_line
-from mjsuff.experiment.run_summary import truth_totals
+from mjsuff.experiment.run_summary import machine_info, truth_totals
 
 NONE_SEARCHED = {"searches": 0, "unsettled_replicates": 0}
 
@@ -44,3 +44,10 @@ def test_truth_totals_of_a_run_without_the_columns_or_rows_are_zero():
     assert truth_totals(pd.DataFrame()) == zero
     assert truth_totals(pd.DataFrame({"replicate": [0, 1]})) == zero
     assert truth_line(zero, 2).startswith("Ground truth: never raised")
+
+
+def test_machine_info_names_the_cpu_the_blas_kernels_and_mujoco():
+    info = machine_info()
+    assert set(info) == {"cpu", "blas", "mujoco"} and all(isinstance(v, str) and v for v in info.values())
+    assert "(" in info["blas"]  # each library with the kernel it chose
+    assert info["mujoco"][0].isdigit()

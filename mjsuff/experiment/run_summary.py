@@ -206,6 +206,44 @@ def finalize(
     )
 
 
+def machine_info() -> dict[str, str]:
+    """What a run's floating point depends on beyond the seed: the CPU (model, and on Linux its
+    family and model numbers), the BLAS library numpy calls and the kernel it chose for this CPU,
+    and MuJoCo's version. Results are bit-identical only where these match (README, after the
+    golden records)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from threadpoolctl import threadpool_info
+
+    fields: dict[str, str] = {}
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if not line.strip():
+                    break  # the first processor's block is enough
+                key, _, value = line.partition(":")
+                fields.setdefault(key.strip(), value.strip())
+    except OSError:
+        pass  # not Linux
+    cpu = fields.get("model name") or platform.processor() or platform.machine()
+    if "cpu family" in fields:
+        cpu += f" (family {fields['cpu family']}, model {fields.get('model', '?')})"
+    blas = [
+        f"{i.get('internal_api')} {i.get('version')} ({i.get('architecture')})"
+        for i in threadpool_info()
+        if i.get("user_api") == "blas"
+    ]
+    try:
+        mujoco = version("mujoco")
+    except PackageNotFoundError:
+        mujoco = "not installed"
+    return {
+        "cpu": cpu,
+        "blas": "; ".join(blas) or "none found",
+        "mujoco": mujoco,
+    }
+
+
 def _run_info(
     directory: Path, scenario: Scenario, backend: str, recorded: bool, started: float, interrupted: bool
 ) -> dict[str, Any]:
@@ -224,6 +262,7 @@ def _run_info(
         "mjsuff_version": __version__,
         "python": platform.python_version(),
         "numpy": np.__version__,
+        "machine": machine_info(),
         "seed": scenario.seed,
         "backend": backend,
         "recorded": recorded,
