@@ -162,6 +162,7 @@ class SceneDomain(Domain):
         self._pool_plans: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._truth: np.ndarray | None = None
         self._truth_library: TrajectoryLibrary | None = None
+        self._truth_copied: list[int] = []
         self._final_truth: FinalTruth | None = None
         # Ground truth gets its own randomness, so computing it changes nothing the learner sees.
         self._truth_rng = np.random.default_rng(int(rng.integers(2**63)))
@@ -339,6 +340,7 @@ class SceneDomain(Domain):
             )
             if self.planning.truth_passes:  # its plans are where the searches at the end begin
                 self._truth_library = library
+                self._truth_copied = [self.library.size(s) for s in range(len(self.scene.starts))]
         return self._truth
 
     def final_true_start_values(self) -> FinalTruth:
@@ -357,6 +359,7 @@ class SceneDomain(Domain):
             self.scene,
             self._truth_library,
             self.library,
+            self._truth_copied,
             truth,
             self.true_weights,
             self._random_mu @ self.true_weights,

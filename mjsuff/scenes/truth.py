@@ -10,6 +10,7 @@ of everything.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -90,6 +91,7 @@ def converge_truth(
     scene: Scene,
     truth_library: TrajectoryLibrary,
     learner_library: TrajectoryLibrary,
+    copied: Sequence[int],
     truth: np.ndarray,
     true_weights: np.ndarray,
     v_rand: np.ndarray,
@@ -97,10 +99,12 @@ def converge_truth(
     planning: PlanningSettings,
     rng: np.random.Generator,
 ) -> tuple[np.ndarray, int, float]:
-    """Ground truth when a replicate ends, searched until it settles: the learner's best
-    trajectory under ``w*`` with knots from every evaluation start joins ``truth_library`` (the
-    first search's; a better feature-only entry, a demo, raises the values but starts no
-    search), then :func:`search_truth` runs on it again (no expert) until a pass raises no
+    """Ground truth when a replicate ends, searched until it settles: every trajectory with
+    knots the learner simulated from an evaluation start since ``truth_library`` was copied from
+    its library (``copied``: the learner's entries per start then) joins it, so the searches
+    warm-start from the learner's basins as well as the first truth's plans (a feature-only
+    entry, a demo, raises the values but starts no search), then
+    :func:`search_truth` runs on it again (no expert) until a pass raises no
     start by more than ``TRUTH_SETTLED`` of its value before the pass minus ``V_rand``
     (``v_rand`` ``(S,)``), at most ``planning.truth_passes`` times.
 
@@ -112,10 +116,8 @@ def converge_truth(
     starts = range(len(scene.starts))
     w = true_weights[None]
     for s in starts:
-        value, index = learner_library.best(s, w)
-        if np.isfinite(value[0]):
-            features, knots = learner_library.arrays(s)
-            truth_library.add(s, features[index], knots[index])
+        features, knots = learner_library.arrays(s)  # in the order they were added
+        truth_library.add(s, features[copied[s] :], knots[copied[s] :])
     values = np.maximum(truth, [learner_library.best_value(s, w)[0] for s in starts])
     passes, gain = 0, 0.0
     while passes < planning.truth_passes:
