@@ -65,11 +65,11 @@ class StepRow:
     truth_raise: float = _column("the largest such raise, as a share of V* − V_rand at that start")
     truth_passes: int = _column(
         "MuJoCo scenes: searches ground truth ran again at the replicate's end, from its own plans "
-        "and the replicate's best (`planning.truth_passes`; 0: none)"
+        "and every plan the learner made from the evaluation starts (`planning.truth_passes`; 0: none)"
     )
     truth_last_gain: float = _column(
-        "the last of those searches' largest raise, a share of V* − V_rand (at most 0.001: the "
-        "truth settled; 0 without searches)"
+        "the last of those searches' largest raise, a share of the start's value before it minus "
+        "V_rand (at most 0.001: the truth settled; 0 without searches)"
     )
 
     def as_dict(self) -> dict[str, Any]:
