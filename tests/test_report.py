@@ -16,7 +16,14 @@ from mjsuff.cli import main
 from mjsuff.experiment.measures import measure_group
 from mjsuff.experiment.runner import run_scenario
 from mjsuff.report import ReportError, compare_rules, load_cells
-from mjsuff.report.figures import f1_with_se, noise_ablation, noise_table, replicate_outcomes, rule_curves
+from mjsuff.report.figures import (
+    f1_with_se,
+    missing_point_note,
+    noise_ablation,
+    noise_table,
+    replicate_outcomes,
+    rule_curves,
+)
 from mjsuff.report.statistics import observations
 from tests.conftest import small_scenario
 
@@ -203,6 +210,16 @@ def test_noise_ablation_keeps_every_series_of_a_two_axis_sweep(tmp_path):
     assert noise_ablation(cells, tmp_path / "noise.png").read_bytes()[:8] == PNG
     # One series: no series column, as before.
     assert "series" not in noise_table([c for c in cells if c.labels["demos.lapse"] == 0.0])
+
+
+def test_noise_ablation_notes_missing_points_only_where_a_panel_misses_one():
+    """A panel says why it misses a point (its rate's denominator is empty), and only then: the
+    FPR of a sweep where every step is truly sufficient, not the accuracy or TPR beside it."""
+    note = missing_point_note("fpr", pd.Series([0.0, math.nan]))
+    assert note == "missing points: no truly insufficient step"
+    assert missing_point_note("tpr", pd.Series([math.nan])) == "missing points: no truly sufficient step"
+    assert missing_point_note("accuracy", pd.Series([1.0, 0.9])) is None
+    assert missing_point_note("fpr", pd.Series([0.0, 0.25])) is None
 
 
 def test_title_leaves_out_a_key_one_run_lacks(tmp_path):

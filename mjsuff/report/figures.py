@@ -200,6 +200,20 @@ def noise_table(cells: list[ReportCell]) -> pd.DataFrame:
     return table if table["series"].nunique() > 1 else table.drop(columns="series")
 
 
+#: Why a measure of the noise ablation has no value at a (noise, ε): its denominator is empty.
+MISSING_REASONS = {
+    "accuracy": "no bound",
+    "tpr": "no truly sufficient step",
+    "fpr": "no truly insufficient step",
+}
+
+
+def missing_point_note(measure: str, values: pd.Series) -> str | None:
+    """The note a noise-ablation panel carries when some of its points are missing (NaN), saying
+    why; None when every point is there."""
+    return f"missing points: {MISSING_REASONS[measure]}" if values.isna().any() else None
+
+
 def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
     """Accuracy, TPR and FPR of the nEVD rule vs. the share of poor demos: one colour per ε, one
     line style per series (the cells' other labels)."""
@@ -230,16 +244,11 @@ def noise_ablation(cells: list[ReportCell], path: Path) -> Path | None:
                 label=", ".join(filter(None, (f"ε = {eps:g}", series))),
             )
         ax.set(xlabel="share of poor demos", title=title, ylim=(-0.02, 1.05))
+        note = missing_point_note(measure, table[measure])
+        if note:
+            ax.annotate(note, (0.02, 0.95), fontsize=7, xycoords="axes fraction", color="grey", va="top")
     # Long handles: in a short one the marker covers the gap that tells a dashed series apart.
     axes[-1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5), handlelength=4)
-    axes[-1].annotate(
-        "no point: no truly insufficient step",
-        (0.02, 0.95),
-        fontsize=7,
-        xycoords="axes fraction",
-        color="grey",
-        va="top",
-    )
     fig.tight_layout()
     _save(fig, path)
     return path
