@@ -5,7 +5,7 @@ the shipped settings (the scenario files, replicates 0..N-1's instances, one dem
 each sample's ``V*_i − V_rand``. Target (issue #17): mean ≤ 1%, max ≤ 3%.
 
     python benchmarks/tail_vstar.py [--scenes lava_reacher lander] [--pairs 16] [--instances 1]
-        [--first-instance 0] [--set KEY=VALUE] [--own-budgets 16x24 24x48] [--bound-cost K]
+        [--first-instance 0] [--demos 1] [--set KEY=VALUE] [--own-budgets 16x24 24x48] [--bound-cost K]
 
 
 The bound is the α-VaR of nEVD over posterior samples; an underestimated ``V*_i`` lowers that
@@ -15,6 +15,11 @@ posterior wide (samples across the prior's orthant, far from w*), which is the h
 Printed for two sets of samples, per instance and pooled: the top 10% (the issue's test), and the
 samples that can move the bound (``decisive``: as many, from the order statistic the bound takes
 downwards; samples ranked above it stay above it however much their ``V*`` rises).
+
+``--demos D`` measures the check after D demos (from pool starts 0..D−1) in the loop's warm state:
+the learner's ``V*`` is first called at the checks after 1..D−1 demos (posterior, π_MAP, ``V*``
+of the samples that can move the bound, as a replicate does), so its library and the directions
+it has planned are the ones a replicate carries into check D (what ``revisit_cosine`` reuses).
 
 ``--bound-cost K`` also prints what the misses cost the bound: the K samples from the bound's order
 statistic down are planned from every evaluation start with the 10× budget, their ``V*_i`` raised
@@ -46,6 +51,7 @@ def measure(
     instance: int = 0,
     budgets: tuple[tuple[int, int], ...] = (),
     bound_cost: int = 0,
+    num_demos: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Gaps of ``pairs`` random (sample, evaluation start) pairs of the top 10% and of as many
     of the decisive samples (module docs). For each CMA-ES ``(population, generations)`` in
@@ -55,21 +61,23 @@ def measure(
     scenario = load_scenario(ROOT / "scenarios" / f"{name}.toml", overrides)
     domain = make_instance(scenario, instance)
     rng = np.random.default_rng(1)
-    demos = [domain.demonstrate(0, rng)]
-    post = sample_posterior(
-        lambda w: domain.log_prior(w) + domain.log_likelihood(w, demos, scenario.demos.beta),
-        domain.num_features,
-        scenario.sampler(),
-        rng,
-        initial=domain.sample_prior(rng, 80),
-    )
-    w = post.samples
-    mu_robot = domain.start_feature_expectations(domain.plan(post.map_weights))
-    t = time.perf_counter()
-    suff = scenario.sufficiency
-    bound_index = nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method)
-    v_star = domain.optimal_start_values(w, robot=mu_robot, bound_index=bound_index)
-    seconds = time.perf_counter() - t
+    suff, pool = scenario.sufficiency, len(domain.pool)
+    demos = []
+    for d in range(num_demos):
+        demos.append(domain.demonstrate(d % pool, rng))
+        post = sample_posterior(
+            lambda w: domain.log_prior(w) + domain.log_likelihood(w, demos, scenario.demos.beta),
+            domain.num_features,
+            scenario.sampler(),
+            rng,
+            initial=domain.sample_prior(rng, 80),
+        )
+        w = post.samples
+        mu_robot = domain.start_feature_expectations(domain.plan(post.map_weights))
+        t = time.perf_counter()
+        bound_index = nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method)
+        v_star = domain.optimal_start_values(w, robot=mu_robot, bound_index=bound_index)
+        seconds = time.perf_counter() - t
     sw, mu_rand = domain.start_weights, domain.random_start_feature_expectations()
     nevd = normalized_evd(v_star @ sw, policy_values(w, mu_robot, sw), policy_values(w, mu_rand, sw))
     order = np.argsort(-nevd)
@@ -77,8 +85,9 @@ def measure(
     tail, decisive = order[: len(w) // 10], order[rank : rank + len(w) // 10]
     far = np.degrees(np.arccos(np.clip(w[tail] @ domain.true_weights, -1, 1)))
     print(
-        f"{name}: tail of {len(tail)} samples, {far.min():.0f}–{far.max():.0f}° from w*; the "
-        f"bound is the {rank + 1}th largest; the learner's V* took {seconds:.1f} s"
+        f"{name}, {len(demos)} demo(s): tail of {len(tail)} samples, "
+        f"{far.min():.0f}–{far.max():.0f}° from w*; the bound is the {rank + 1}th largest; "
+        f"the learner's V* took {seconds:.1f} s (this check)"
     )
     chosen = [rng.choice(len(group) * len(sw), size=pairs, replace=False) for group in (tail, decisive)]
     samples = np.concatenate([group[c // len(sw)] for group, c in zip((tail, decisive), chosen, strict=True)])
@@ -182,6 +191,13 @@ def sample_count(text: str) -> int:
     return int(text)
 
 
+def positive(text: str) -> int:
+    """``--demos``' D: a whole number of demos, ≥ 1."""
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number of demos >= 1, e.g. 3; got {text!r}")
+    return int(text)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
@@ -198,6 +214,13 @@ def main() -> None:
         default=[],
         metavar="KEY=VALUE",
         help="override a scenario key, e.g. domain.params.planning.refine_rounds=2",
+    )
+    parser.add_argument(
+        "--demos",
+        type=positive,
+        default=1,
+        metavar="D",
+        help="measure the check after D demos, the learner's V* called at every check before it",
     )
     parser.add_argument(
         "--own-budgets",
@@ -221,7 +244,7 @@ def main() -> None:
     for name in args.scenes:
         t = time.perf_counter()
         gaps = [
-            measure(name, args.pairs, args.set, i, budgets, args.bound_cost)
+            measure(name, args.pairs, args.set, i, budgets, args.bound_cost, args.demos)
             for i in range(args.first_instance, args.first_instance + args.instances)
         ]
         for which, label in enumerate(("top 10%", "decisive")):
