@@ -97,6 +97,7 @@ _polish, _search, _converge = truth.polish_library, truth.search_truth, truth.co
 
 
 def run_one(scene: str, seed: int, replicate: int, overrides: list[str]) -> dict:
+    RECORDER.passes = []  # a worker process runs several replicates
     truth.SamplingPlanner = _RecordingPlanner
     truth.polish_library = _recording_polish
     truth.search_truth = _recording_search
