@@ -12,7 +12,7 @@ import pytest
 from mjsuff.domain import TRUTH_SETTLED, Demo
 from mjsuff.domains import REGISTRY, get_domain
 from mjsuff.posterior import SamplerConfig, grid_posterior, sample_posterior
-from mjsuff.scenes.truth import search_truth
+from mjsuff.scenes.truth import TRUTH_CLOUD, search_truth
 from mjsuff.sphere import random_unit_vectors
 
 SCENES = sorted(n for n, spec in REGISTRY.items() if spec.kind == "scene")
@@ -363,6 +363,27 @@ def test_final_truth_searches_again_until_it_settles(name):
         np.random.default_rng(24),
     )
     assert np.all(again <= final.values + 0.01 * scale), (again - final.values) / scale
+
+
+@pytest.mark.parametrize("every_pass", [True, False])
+def test_final_truth_plans_the_cloud_in_the_passes_its_setting_asks(every_pass, monkeypatch):
+    """``planning.truth_cloud_every_pass``: the searches at the end plan the rewards around w*
+    first in every pass, or (false) only in the first. Searches here are stand-ins that raise
+    every start by its whole V* − V_rand, so no pass settles and all ``truth_passes`` run."""
+    planning = {**SMALL_PLANNING, "truth_passes": 3, "truth_cloud_every_pass": every_pass}
+    domain = small_domain("lava_reacher", seed=21, planning=planning)
+    truth = domain.true_optimal_start_values().copy()
+    v_rand = domain.random_start_feature_expectations() @ domain.true_weights
+    clouds = []
+
+    def search(scene, library, true_weights, planner, planning, expert, rng, cloud=TRUTH_CLOUD):
+        clouds.append(cloud)
+        return truth + (2 ** len(clouds)) * np.abs(truth - v_rand)
+
+    monkeypatch.setattr("mjsuff.scenes.truth.search_truth", search)
+    final = domain.final_true_start_values()
+    assert final.passes == 3 and final.last_gain > TRUTH_SETTLED
+    assert clouds == ([TRUTH_CLOUD] * 3 if every_pass else [TRUTH_CLOUD, 0, 0])
 
 
 def test_bad_demo_features_are_a_clear_error(case):

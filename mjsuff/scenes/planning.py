@@ -85,6 +85,12 @@ class PlanningSettings(BaseModel):
         "learner's best under w*, until a search raises no evaluation start by more than 0.001 of "
         "V* − V_rand, at most this many times (0: only raised to the best simulated)",
     )
+    truth_cloud_every_pass: bool = Field(
+        True,
+        description="those searches plan the rewards around w* first in every pass; false: only "
+        "in the first (after it the cloud is about 58% of a pass's steps and raised no start by "
+        "more than 0.001 in 7 passes, stop 55, benchmarks/truth_phases.py)",
+    )
 
     def resolved(
         self, planner: PlannerConfig, refine: PlannerConfig, seed: PlannerConfig

@@ -51,22 +51,24 @@ def search_truth(
 ) -> np.ndarray:
     """``V*_{w*}(s)`` ``(S,)``: the best under ``w*`` of ``library`` (which gains every plan: never
     pass the learner's own) after ``cloud`` rewards around ``w*`` are planned from every start
-    with the planner's budget (``planner``), then ``w*`` by three searches, each from the best
-    found so far and with ``planning.truth_scale`` × its budget (the seed planner's wide one, the
-    planner's CMA-ES with a broad step, the planner itself), the local quadratic model's
-    proposals until they stop improving, and, when there is an expert, its best demo from every
-    evaluation start (a demonstrator that is never asked there in the run)."""
+    with the planner's budget (``planner``; none when ``cloud`` is 0), then ``w*`` by three
+    searches, each from the best found so far and with ``planning.truth_scale`` × its budget (the
+    seed planner's wide one, the planner's CMA-ES with a broad step, the planner itself), the
+    local quadratic model's proposals until they stop improving, and, when there is an expert,
+    its best demo from every evaluation start (a demonstrator that is never asked there in the
+    run)."""
     k = len(true_weights)
     starts = np.arange(len(scene.starts))
     w = np.tile(true_weights, (len(starts), 1))
     # First the learner's own kind of search, for rewards around w* (as its π_MAP plans for
     # posterior modes near w* are): each lands in some basin, and w*'s searches then start from
     # the best of them all.
-    near = normalize(true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal((cloud, k)))
-    problems, directions = np.repeat(starts, cloud), np.tile(near, (len(starts), 1))
-    SamplingPlanner(scene, planner, library).plan(
-        problems, directions, rng, warm_knots=library_warm(library, problems, directions)
-    )
+    if cloud > 0:
+        near = normalize(true_weights + TRUTH_CLOUD_SPREAD * rng.standard_normal((cloud, k)))
+        problems, directions = np.repeat(starts, cloud), np.tile(near, (len(starts), 1))
+        SamplingPlanner(scene, planner, library).plan(
+            problems, directions, rng, warm_knots=library_warm(library, problems, directions)
+        )
     # Searches of growing locality, each truth_scale × its budget: the seed plans' wide search;
     # the planner's CMA-ES with a broad first step (TRUTH_SIGMA: it reaches basins next to the
     # library's best that the planner's own step does not); the planner itself.
@@ -106,7 +108,8 @@ def converge_truth(
     entry, a demo, raises the values but starts no search), then
     :func:`search_truth` runs on it again (no expert) until a pass raises no
     start by more than ``TRUTH_SETTLED`` of its value before the pass minus ``V_rand``
-    (``v_rand`` ``(S,)``), at most ``planning.truth_passes`` times.
+    (``v_rand`` ``(S,)``), at most ``planning.truth_passes`` times (passes after the first
+    without the cloud around ``w*`` unless ``planning.truth_cloud_every_pass``).
 
     Returns the values ``(S,)`` (at least ``truth`` and the learner's best), the passes run and
     the last pass's largest gain (in those units; above ``TRUTH_SETTLED``: still rising when
@@ -121,7 +124,8 @@ def converge_truth(
     values = np.maximum(truth, [learner_library.best_value(s, w)[0] for s in starts])
     passes, gain = 0, 0.0
     while passes < planning.truth_passes:
-        found = search_truth(scene, truth_library, true_weights, planner, planning, None, rng)
+        cloud = TRUTH_CLOUD if passes == 0 or planning.truth_cloud_every_pass else 0
+        found = search_truth(scene, truth_library, true_weights, planner, planning, None, rng, cloud=cloud)
         passes += 1
         gain = float(np.max((found - values) / np.maximum(values - v_rand, 1e-12), initial=0.0))
         values = np.maximum(values, found)
