@@ -19,7 +19,10 @@ downwards; samples ranked above it stay above it however much their ``V*`` rises
 ``--demos D`` measures the check after D demos (from pool starts 0..D−1) in the loop's warm state:
 the learner's ``V*`` is first called at the checks after 1..D−1 demos (posterior, π_MAP, ``V*``
 of the samples that can move the bound, as a replicate does), so its library and the directions
-it has planned are the ones a replicate carries into check D (what ``revisit_cosine`` reuses).
+it has planned are close to those a replicate carries into check D (what ``revisit_cosine``
+reuses). Not the same: a replicate takes its demo starts in its schedule's order (here 0..D−1),
+its validation rules add held-out π_MAP plans from demo 4 on, and D above the pool size repeats
+starts here.
 
 ``--bound-cost K`` also prints what the misses cost the bound: the K samples from the bound's order
 statistic down are planned from every evaluation start with the 10× budget, their ``V*_i`` raised

@@ -80,6 +80,8 @@ def _recording_polish(*args, **kwargs) -> None:
 def _recording_search(scene, library, true_weights, *args, **kwargs):
     if RECORDER.active:
         RECORDER.begin_pass(library, scene, true_weights)
+        if kwargs.get("cloud", truth.TRUTH_CLOUD) == 0:  # no cloud planned: an empty phase
+            RECORDER.mark()
     return _search(scene, library, true_weights, *args, **kwargs)
 
 
@@ -151,7 +153,7 @@ def main() -> None:
     for r in results:
         for i, phases in enumerate(r["passes"]):
             cells = []
-            for name, p in zip(PHASES, phases, strict=False):
+            for name, p in zip(PHASES, phases, strict=True):
                 cells.append(f"{p['starts']} / {p['largest']:.4f} / {p['steps'] / 1e6:.1f}M")
                 total = totals[name]
                 total[0] += p["starts"]

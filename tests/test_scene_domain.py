@@ -386,6 +386,32 @@ def test_final_truth_plans_the_cloud_in_the_passes_its_setting_asks(every_pass, 
     assert clouds == ([TRUTH_CLOUD] * 3 if every_pass else [TRUTH_CLOUD, 0, 0])
 
 
+@pytest.mark.parametrize("cloud", [TRUTH_CLOUD, 0])
+def test_truth_search_plans_its_cloud_only_when_asked(cloud, monkeypatch):
+    """``search_truth(cloud=0)`` plans no rewards around w* and draws no randomness for them: its
+    planners are stand-ins that record the problems they get and draw nothing."""
+    domain = small_domain("lava_reacher", seed=21)
+    starts = len(domain.scene.starts)
+    planned = []
+
+    class Recording:
+        def __init__(self, scene, config, library):
+            pass
+
+        def plan(self, problems, directions, rng, warm_knots=None):
+            planned.append(len(problems))
+
+    monkeypatch.setattr("mjsuff.scenes.truth.SamplingPlanner", Recording)
+    monkeypatch.setattr("mjsuff.scenes.truth.polish_library", lambda *args, **kwargs: None)
+    rng = np.random.default_rng(5)
+    library = copy.deepcopy(domain.library)
+    w = domain.true_weights
+    search_truth(domain.scene, library, w, domain.planner.config, domain.planning, None, rng, cloud=cloud)
+    assert planned == ([cloud * starts] if cloud else []) + [starts] * 3
+    untouched = np.random.default_rng(5)
+    assert (rng.random() == untouched.random()) is (cloud == 0)
+
+
 def test_bad_demo_features_are_a_clear_error(case):
     domain, _ = case
     with pytest.raises(ValueError, match="features must be"):
