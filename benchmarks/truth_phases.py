@@ -5,10 +5,10 @@ With ``planning.truth_passes`` a replicate's truth is searched again when it end
 on the truth's library: a cloud of rewards around ``w*`` planned with the planner's budget, then
 ``w*``'s three searches (the seed planner's wide one, a broad CMA-ES, the planner itself, each
 ``truth_scale`` × its budget), then the local quadratic model until it stops improving. The
-passes cost a third to a half of a lander replicate's simulation (README, stop 55). This runs
-replicates as ``mjsuff run`` does and records, in every end pass, what each phase raised the
-truth by at every evaluation start (in units of that start's ``V* − V_rand``) and the MuJoCo
-steps it cost, so a cheaper pass can be chosen by what finds the gains.
+passes cost a third to a half of a lander replicate's simulation (docs/issue-17-measurements.md,
+stop 55). This runs replicates as ``mjsuff run`` does and records, in every end pass, what each
+phase raised the truth by at every evaluation start (in units of that start's ``V* − V_rand``)
+and the MuJoCo steps it cost, so a cheaper pass can be chosen by what finds the gains.
 
 Printed per replicate and pass: per phase, the starts it raised by more than ``TRUTH_SETTLED``
 (0.001), its largest gain and its steps; then per phase over all passes.

@@ -114,7 +114,7 @@ def converge_truth(
     Returns the values ``(S,)`` (at least ``truth`` and the learner's best), the passes run and
     the last pass's largest gain (in those units; above ``TRUTH_SETTLED``: still rising when
     the passes allowed ran out). A quiet pass is no proof of a fixed point: an independent
-    search can still find another basin (README, "The lander's truth budget").
+    search can still find another basin (docs/issue-17-measurements.md, "The lander's truth budget").
     """
     starts = range(len(scene.starts))
     w = true_weights[None]
