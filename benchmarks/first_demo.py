@@ -46,6 +46,9 @@ class _LastStep:
     def step(self, step, demo, samples, nevd, map_weights, map_policy, rows) -> None:
         self.demo, self.map_weights, self.map_policy, self.rows = demo, map_weights, map_policy, rows
 
+    def end(self, rows) -> None:
+        pass
+
 
 def one_demo(seed: int, overrides: list[str]) -> list[str]:
     """The scenario overrides of a first-demo replicate: the seed, ``--set``'s, one demo."""

@@ -94,6 +94,9 @@ class _Truths:
     def step(self, *args) -> None:
         pass
 
+    def end(self, rows) -> None:
+        pass
+
 
 #: A re-search's gain at a start counts when above this share of its V* − V_rand (below it:
 #: polishing digits, not another basin): the rule a settled truth's searches stop by.

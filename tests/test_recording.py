@@ -10,6 +10,8 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
+from mjsuff.domain import FinalTruth
+from mjsuff.domains.tabular import TabularDomain
 from mjsuff.experiment.run_summary import RECORDING
 from mjsuff.experiment.runner import run_scenario
 from mjsuff.recording import Recording, SceneLogger
@@ -64,6 +66,39 @@ def test_series_equal_the_values_in_steps_parquet(grid_run):
             np.testing.assert_array_equal(
                 [v[0] for v in bound.column(1).to_pylist()], finite["bound"].to_numpy()
             )
+
+
+def test_true_values_are_those_the_replicate_ends_with(tmp_path, monkeypatch):
+    """A scene's truth is raised when its replicate ends and every row is scored again: the
+    recording's true values and stop lines must be those of steps.parquet, not the ones each step
+    was first scored with. Gridworld's exact truth is raised here by hand (by a third of each
+    start's V* - V_rand: every true nEVD moves, so the values first scored differ)."""
+
+    def raised_truth(self):
+        v_star = self.true_optimal_start_values()
+        v_rand = self.random_start_feature_expectations() @ self.true_weights
+        return FinalTruth(v_star + (v_star - v_rand) / 3)
+
+    monkeypatch.setattr(TabularDomain, "final_true_start_values", raised_truth)
+    run_scenario(small_scenario(replicates=1), tmp_path)
+    steps = pd.read_parquet(tmp_path / "steps.parquet")
+    assert (steps["truth_raised_starts"] > 0).all()
+    recording = Recording(tmp_path / RECORDING)
+    for (rule, param), rows in steps.groupby(["rule", "param"]):
+        rows = rows.sort_values("step")
+        table = recording.series(f"r0/rules/{rule}_{param:g}/true_value", "Scalars:scalars", "demo")
+        assert table.column("demo").to_pylist() == rows["step"].tolist()
+        np.testing.assert_array_equal([v[0] for v in table.column(1).to_pylist()], rows["true_value"])
+    log = recording.series("r0/log", "TextLog:text", "demo")
+    lines = [str(v[0]) for v in log.column(1).to_pylist()]
+    for (rule, param), rows in steps[steps["decision"]].groupby(["rule", "param"]):
+        first = rows.sort_values("step").iloc[0]
+        assert f"STOP {rule} {param:g} at demo {first.step}:" in "\n".join(lines)
+        assert any(
+            line.startswith(f"STOP {rule} {param:g} ") and line.endswith(f"true {first.true_value:.3f}")
+            for line in lines
+        )
+    assert any(line.startswith("ground truth raised at the replicate's end") for line in lines)
 
 
 def test_posterior_samples_and_marks(grid_run):

@@ -167,7 +167,11 @@ class ReplicateObserver(Protocol):
         map_weights: np.ndarray,
         map_policy: Policy,
         rows: list[dict[str, Any]],
-    ) -> None: ...
+    ) -> None:
+        """One demo step; ``rows`` carry the truth the replicate began with (raised at its end)."""
+
+    def end(self, rows: list[dict[str, Any]]) -> None:
+        """The replicate has ended: every row, scored against the final truth (as in steps.parquet)."""
 
 
 class _Posteriors:
@@ -300,7 +304,8 @@ def run_replicate(
     """Run one replicate; returns one row per rule and demo step (see README, steps.parquet).
 
     ``demo_source`` (e.g. a saved demo set) replaces the domain's expert; ``observer`` sees the
-    instance and every step (the demo, the posterior with each sample's nEVD, π_MAP, the rows).
+    instance, every step (the demo, the posterior with each sample's nEVD, π_MAP, the rows) and
+    the rows again when the replicate ends, scored against the final truth.
     """
     domain = make_instance(scenario, replicate)
     if observer is not None:
@@ -366,7 +371,10 @@ def run_replicate(
         elif step < schedule.budget:
             start = schedule.start(step)
     _rescore(domain, truth, rows, scored)
-    return [row.as_dict() for row in rows]
+    final_rows = [row.as_dict() for row in rows]
+    if observer is not None:
+        observer.end(final_rows)
+    return final_rows
 
 
 def _rescore(domain: Domain, truth: _Truth, rows: list[StepRow], scored: list[tuple[Policy, bool]]) -> None:

@@ -8,9 +8,12 @@ trajectories back, the ``sim_time`` timeline:
 * ``rR/posterior/samples`` — posterior samples coloured by their nEVD (blue low, yellow high): the
   weights themselves for k = 3 (the unit sphere is drawn), otherwise their projection on the
   samples' 3 principal axes; ``w_map`` and ``w_true`` marked;
-* ``rR/rules/KIND_PARAM/{bound,threshold,true_value}`` — the steps.parquet values as series;
-* ``rR/log`` — each demo and each rule's first stop as text; ``run/scenario`` — the resolved
-  scenario (TOML, static).
+* ``rR/rules/KIND_PARAM/{bound,threshold,true_value}`` — the steps.parquet values as series
+  (``true_value`` logged when the replicate ends, against the truth it ends with: a scene's truth
+  is raised then, so the values seen at each step would be stale);
+* ``rR/log`` — each demo and each rule's first stop as text (the stops logged at the end, with
+  that truth), and how the end raised the truth; ``run/scenario`` — the resolved scenario (TOML,
+  static).
 """
 
 from __future__ import annotations
@@ -114,7 +117,6 @@ class ReplicateRecorder:
         self.root = f"r{replicate}"
         self.view: DomainView | None = None
         self.domain: Domain | None = None
-        self._stopped: set[str] = set()
 
     def begin(self, domain: Domain) -> None:
         self.domain = domain
@@ -167,18 +169,38 @@ class ReplicateRecorder:
                 rec.log(f"{path}/bound", rr.Scalars(row["bound"]))
             if row["rule"] in ("nevd", "piob"):
                 rec.log(f"{path}/threshold", rr.Scalars(row["param"]))
+
+    def end(self, rows: list[dict[str, Any]]) -> None:
+        """The truth the replicate ended with: every row's ``true_value`` at its step, each rule's
+        first stop, and how far the end raised the truth (at the last step)."""
+        rec, root = self.recording, self.root
+        stopped: set[str] = set()
+        for row in sorted(rows, key=lambda r: r["step"]):
+            path = f"{root}/rules/{rule_path(row)}"
+            rec.set_time("demo", sequence=row["step"])
             rec.log(f"{path}/true_value", rr.Scalars(row["true_value"]))
-            if row["decision"] and rule_path(row) not in self._stopped:
-                self._stopped.add(rule_path(row))
+            if row["decision"] and rule_path(row) not in stopped:
+                stopped.add(rule_path(row))
                 bound = f"bound {row['bound']:.3f}, " if np.isfinite(row["bound"]) else ""
                 rec.log(
                     f"{root}/log",
                     rr.TextLog(
-                        f"STOP {row['rule']} {row['param']:g} at demo {step}: {bound}"
+                        f"STOP {row['rule']} {row['param']:g} at demo {row['step']}: {bound}"
                         f"true {row['true_value']:.3f}",
                         level="WARN",
                     ),
                 )
+        if rows and rows[-1]["truth_raised_starts"]:
+            last = rows[-1]
+            rec.log(
+                f"{root}/log",
+                rr.TextLog(
+                    f"ground truth raised at the replicate's end at {last['truth_raised_starts']} "
+                    f"evaluation starts, by at most {last['truth_raise']:.3f} of V* - V_rand "
+                    "(every true value above is scored against it)",
+                    level="INFO",
+                ),
+            )
 
 
 class RunRecorder:
