@@ -91,13 +91,14 @@ def test_true_values_are_those_the_replicate_ends_with(tmp_path, monkeypatch):
         np.testing.assert_array_equal([v[0] for v in table.column(1).to_pylist()], rows["true_value"])
     log = recording.series("r0/log", "TextLog:text", "demo")
     lines = [str(v[0]) for v in log.column(1).to_pylist()]
-    for (rule, param), rows in steps[steps["decision"]].groupby(["rule", "param"]):
-        first = rows.sort_values("step").iloc[0]
-        assert f"STOP {rule} {param:g} at demo {first.step}:" in "\n".join(lines)
-        assert any(
-            line.startswith(f"STOP {rule} {param:g} ") and line.endswith(f"true {first.true_value:.3f}")
-            for line in lines
-        )
+    stops = [line for line in lines if line.startswith("STOP ")]
+    decided = steps[steps["decision"]].sort_values("step").groupby(["rule", "param"]).head(1)
+    assert len(stops) == len(decided)  # one line per rule that stopped, at its first stop
+    for first in decided.itertuples():
+        bound = f"bound {first.bound:.3f}, " if np.isfinite(first.bound) else ""
+        where = f"STOP {first.rule} {first.param:g} at demo {first.step}"
+        expected = f"{where}: {bound}true {first.true_value:.3f}"
+        assert expected in stops, (expected, stops)
     assert any(line.startswith("ground truth raised at the replicate's end") for line in lines)
 
 

@@ -100,9 +100,10 @@ def execute(task: ReplicateTask, on_step: StepCallback | None = None) -> Replica
 
 
 def _check_recorded(path: Path, replicate: int, last_step: int) -> None:
-    """The replicate's recording part reaches its last demo step. Rerun writes in the background and
-    only logs a failure (a full disk where the worker records): a part cut short would be merged
-    and the replicate's steps lost from ``recording.rrd`` for good.
+    """The replicate's recording part reaches its last demo step, through to what is logged last
+    (the rules' ``true_value`` series, written when the replicate ends). Rerun writes in the
+    background and only logs a failure (a full disk where the worker records): a part cut short
+    would be merged and the replicate's steps lost from ``recording.rrd`` for good.
 
     Raises:
         OSError: The part cannot be read, or stops before ``last_step``.
@@ -120,7 +121,9 @@ def _check_recorded(path: Path, replicate: int, last_step: int) -> None:
     steps = [
         step
         for c in chunks
-        if c.entity_path.startswith(root) and "demo" in c.timeline_names
+        if c.entity_path.startswith(root)
+        and c.entity_path.endswith("/true_value")
+        and "demo" in c.timeline_names
         for step in c.to_record_batch().column("demo").to_pylist()
     ]
     if max(steps, default=0) < last_step:
