@@ -93,7 +93,7 @@ def test_true_values_are_those_the_replicate_ends_with(tmp_path, monkeypatch):
     lines = [str(v[0]) for v in log.column(1).to_pylist()]
     stops = [line for line in lines if line.startswith("STOP ")]
     decided = steps[steps["decision"]].sort_values("step").groupby(["rule", "param"]).head(1)
-    assert len(stops) == len(decided)  # one line per rule that stopped, at its first stop
+    assert not decided.empty and len(stops) == len(decided)  # one line per rule that stopped, at its first
     for first in decided.itertuples():
         bound = f"bound {first.bound:.3f}, " if np.isfinite(first.bound) else ""
         where = f"STOP {first.rule} {first.param:g} at demo {first.step}"
