@@ -259,6 +259,34 @@ def test_plan_samples_plans_from_the_bound_down(case, monkeypatch):
     np.testing.assert_array_equal(planned[0], weights[order[9:12]])
 
 
+@pytest.mark.parametrize("revisit_cosine", [0.98, 0.999])
+def test_a_direction_near_one_planned_reuses_its_plan(case, revisit_cosine):
+    """``planning.revisit_cosine`` (shipped 0.98 on both scenes, stop 57): a (sample, start)
+    within that cosine of a direction already planned from the start is not planned again (the
+    library's best for it is the nearby plan's); one outside it is. Directions at cosine 0.99
+    (about 8°) and 0.95 (about 18°) to a planned one."""
+    domain, _ = case
+    probe = copy.deepcopy(domain)
+    with_planning(probe, revisit_cosine=revisit_cosine)
+    rng = np.random.default_rng(13)
+    w = domain.sample_prior(rng, 1)[0]
+    u = rng.standard_normal(w.shape)
+    u -= (u @ w) * w
+    u /= np.linalg.norm(u)
+    starts = range(len(domain.scene.starts))
+
+    def planned_from_every_start(direction) -> bool:
+        before = [probe.library.size(s) for s in starts]
+        probe.vstar.plan_samples(direction[None])
+        grew = [probe.library.size(s) > before[s] for s in starts]
+        assert len(set(grew)) == 1  # every start alike: all have the same directions planned
+        return grew[0]
+
+    assert planned_from_every_start(w)
+    assert planned_from_every_start(0.99 * w + np.sqrt(1 - 0.99**2) * u) == (revisit_cosine > 0.99)
+    assert planned_from_every_start(0.95 * w - np.sqrt(1 - 0.95**2) * u)
+
+
 def test_tolerances_define_unchanged_and_matching(case):
     domain, demos = case
     policy = domain.plan(domain.true_weights)
