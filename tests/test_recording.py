@@ -49,17 +49,24 @@ def test_recording_has_the_expected_entities_and_timelines(grid_run):
     assert RrdReader(str(directory / RECORDING)).blueprints()  # opens on the default layout
 
 
-def test_series_equal_the_values_in_steps_parquet(grid_run):
-    directory, steps = grid_run
-    recording = Recording(directory / RECORDING)
+def assert_true_values_recorded(recording: Recording, steps: pd.DataFrame) -> None:
+    """Every rule's ``true_value`` series in ``recording`` is steps.parquet's, step for step."""
     for (r, rule, param), rows in steps.groupby(["replicate", "rule", "param"]):
         rows = rows.sort_values("step")
-        base = f"r{r}/rules/{rule}_{param:g}"
-        table = recording.series(f"{base}/true_value", "Scalars:scalars", "demo")
+        table = recording.series(f"r{r}/rules/{rule}_{param:g}/true_value", "Scalars:scalars", "demo")
         assert table.column("demo").to_pylist() == rows["step"].tolist()
         np.testing.assert_array_equal(
             [v[0] for v in table.column(1).to_pylist()], rows["true_value"].to_numpy()
         )
+
+
+def test_series_equal_the_values_in_steps_parquet(grid_run):
+    directory, steps = grid_run
+    recording = Recording(directory / RECORDING)
+    assert_true_values_recorded(recording, steps)
+    for (r, rule, param), rows in steps.groupby(["replicate", "rule", "param"]):
+        rows = rows.sort_values("step")
+        base = f"r{r}/rules/{rule}_{param:g}"
         if rule in ("nevd", "piob"):
             bound = recording.series(f"{base}/bound", "Scalars:scalars", "demo")
             finite = rows[np.isfinite(rows["bound"])]
@@ -84,11 +91,7 @@ def test_true_values_are_those_the_replicate_ends_with(tmp_path, monkeypatch):
     steps = pd.read_parquet(tmp_path / "steps.parquet")
     assert (steps["truth_raised_starts"] > 0).all()
     recording = Recording(tmp_path / RECORDING)
-    for (rule, param), rows in steps.groupby(["rule", "param"]):
-        rows = rows.sort_values("step")
-        table = recording.series(f"r0/rules/{rule}_{param:g}/true_value", "Scalars:scalars", "demo")
-        assert table.column("demo").to_pylist() == rows["step"].tolist()
-        np.testing.assert_array_equal([v[0] for v in table.column(1).to_pylist()], rows["true_value"])
+    assert_true_values_recorded(recording, steps)
     log = recording.series("r0/log", "TextLog:text", "demo")
     lines = [str(v[0]) for v in log.column(1).to_pylist()]
     stops = [line for line in lines if line.startswith("STOP ")]
