@@ -64,6 +64,7 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
         nevd, suff.alpha, suff.delta, suff.quantile_method, post.effective_size(nevd, suff.alpha)
     )
     t["steps"] = post.steps
+    t["replans"] = domain.replans
     return t
 
 
@@ -103,12 +104,13 @@ def main() -> None:
             f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)"
         )
         for label, t in (("first check", first), ("warm check (11th demo)", second)):
-            parts = {k: v for k, v in t.items() if k not in ("bound", "steps")}
+            parts = {k: v for k, v in t.items() if k not in ("bound", "steps", "replans")}
             total = sum(parts.values())
             shares = ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in parts.items())
             print(
                 f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}; "
-                f"{t['steps']} sampler steps per chain"
+                f"{t['steps']} sampler steps per chain; π_MAP with the refinement budget "
+                f"(replan_cosine) in {t['replans']} check(s) so far"
             )
 
 

@@ -53,7 +53,7 @@ from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.search import library_warm, polish_library
 from mjsuff.scenes.truth import converge_truth, search_truth
 from mjsuff.scenes.vstar import LibraryVStar
-from mjsuff.sphere import random_negative_unit_vectors
+from mjsuff.sphere import normalize, random_negative_unit_vectors
 
 if TYPE_CHECKING:
     from mjsuff.experts.expert import Expert
@@ -159,6 +159,8 @@ class SceneDomain(Domain):
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())
         self._features: dict[bytes, np.ndarray] = {}
         self._planned_for: dict[bytes, np.ndarray] = {}
+        self._plan_directions = np.empty((0, k))  # the rewards π was planned for, normalized
+        self.replans = 0  # of them, planned with the refiner's budget (``replan_cosine``)
         self._pool_plans: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         self._truth: np.ndarray | None = None
         self._truth_library: TrajectoryLibrary | None = None
@@ -251,11 +253,27 @@ class SceneDomain(Domain):
 
     # -- robot side ---------------------------------------------------------------------------
     def plan(self, w: np.ndarray) -> np.ndarray:
-        """Planned knots ``(S, K, nu)`` from every evaluation start for reward weights ``w``."""
+        """Planned knots ``(S, K, nu)`` from every evaluation start for reward weights ``w``.
+
+        With ``planning.replan_cosine`` set, a ``w`` within that cosine of one already planned
+        for (a MAP that moved little since the last check) is planned with the refiner's budget:
+        its warm start, the library's best under ``w``, already holds the earlier plan.
+        """
         w = np.asarray(w, dtype=float)
-        knots = self._plan(self.planner, w, np.arange(len(self.scene.starts)))
+        knots = self._plan(self._planner_for(w), w, np.arange(len(self.scene.starts)))
         self._planned_for[self.policy_key(knots)] = w.copy()
         return knots
+
+    def _planner_for(self, w: np.ndarray) -> SamplingPlanner:
+        """π's planner for ``w``, or the refiner when ``w`` is near a reward π was planned for."""
+        near = self.planning.replan_cosine
+        direction = normalize(w)
+        earlier = self._plan_directions
+        self._plan_directions = np.concatenate([earlier, direction[None]])
+        if near is not None and len(earlier) and (earlier @ direction).max() >= near:
+            self.replans += 1
+            return self.refiner
+        return self.planner
 
     def _plan(self, planner: SamplingPlanner, w: np.ndarray, starts: np.ndarray) -> np.ndarray:
         """Knots planned for ``w`` from library starts ``starts``, warm-started from the library."""

@@ -61,6 +61,14 @@ class PlanningSettings(BaseModel):
         description="a group within this cosine of a direction already refined from the same "
         "start is not refined again",
     )
+    replan_cosine: float | None = Field(
+        None,
+        gt=0.0,
+        le=1.0,
+        description="π for a reward within this cosine of one π was already planned for (the "
+        "last check's MAP, moved little) is planned with the refinement budget instead, "
+        "warm-started from the library as always; unset: always π's budget",
+    )
     seed_directions: int = Field(
         8,
         ge=1,
