@@ -287,6 +287,34 @@ def test_a_direction_near_one_planned_reuses_its_plan(case, revisit_cosine):
     assert planned_from_every_start(0.95 * w - np.sqrt(1 - 0.95**2) * u)
 
 
+@pytest.mark.parametrize("replan_cosine", [None, 0.98])
+def test_pi_for_a_reward_near_one_planned_gets_the_refinement_budget(case, replan_cosine, monkeypatch):
+    """``planning.replan_cosine``: π for a reward within that cosine of one π was already planned
+    for is planned with the refiner's budget (warm-started from the library as always); one
+    outside it, the first one, and every one when unset, with π's. Directions at cosine 0.99 and
+    0.95 to the planned one."""
+    domain, _ = case
+    probe = copy.deepcopy(domain)
+    with_planning(probe, replan_cosine=replan_cosine)
+    used = []
+    for name in ("planner", "refiner"):
+        planner = getattr(probe, name)
+        monkeypatch.setattr(
+            planner, "plan", lambda *a, _p=planner.plan, _n=name, **k: used.append(_n) or _p(*a, **k)
+        )
+    rng = np.random.default_rng(14)
+    w = domain.sample_prior(rng, 1)[0]
+    u = rng.standard_normal(w.shape)
+    u -= (u @ w) * w
+    u /= np.linalg.norm(u)
+    for direction in (w, 0.99 * w + np.sqrt(1 - 0.99**2) * u, 0.95 * w - np.sqrt(1 - 0.95**2) * u):
+        knots = probe.plan(3.0 * direction)  # the scale does not matter
+        assert knots.shape == (len(domain.scene.starts), *domain.scene.spline.shape)
+    near = "refiner" if replan_cosine else "planner"
+    assert used == ["planner", near, "planner"]
+    assert probe.replans == (1 if replan_cosine else 0)
+
+
 def test_tolerances_define_unchanged_and_matching(case):
     domain, demos = case
     policy = domain.plan(domain.true_weights)
