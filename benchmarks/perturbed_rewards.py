@@ -2,7 +2,8 @@
 
 For instances of a scene (the scenario file's settings), the true nEVD (under w*, against the
 instance's random policy) of the policy the planner makes for: w* itself (the planner–expert
-floor under every π_MAP), w* with one feature's weight zeroed, and random all-negative rewards.
+floor under every π_MAP), w* with one feature's weight zeroed, and random all-negative rewards,
+each with π's budget (``replan_cosine`` off).
 Demos can only matter where wrong weights produce different motions.
 
     python benchmarks/perturbed_rewards.py lava_reacher --seeds 1 2 3
@@ -33,6 +34,9 @@ def measure(
     (and the random policy's) feature expectations per evaluation start."""
     scenario = load_scenario(ROOT / "scenarios" / f"{name}.toml", [f"seed={seed}", *overrides])
     domain = make_instance(scenario, 0)
+    # Every reward here gets π's own budget: nearby ones (w* with a small weight zeroed) would
+    # otherwise be re-planned with the refinement budget (``replan_cosine``, shipped on the reacher).
+    domain.planning = domain.planning.model_copy(update={"replan_cosine": None})
     w = domain.true_weights
     v_star = domain.true_optimal_start_values()
     gap = np.mean(v_star - domain.random_start_feature_expectations() @ w)

@@ -255,9 +255,10 @@ class SceneDomain(Domain):
     def plan(self, w: np.ndarray) -> np.ndarray:
         """Planned knots ``(S, K, nu)`` from every evaluation start for reward weights ``w``.
 
-        With ``planning.replan_cosine`` set, a ``w`` within that cosine of one already planned
-        for (a MAP that moved little since the last check) is planned with the refiner's budget:
-        its warm start, the library's best under ``w``, already holds the earlier plan.
+        With ``planning.replan_cosine`` set, a ``w`` within that cosine of any reward planned for
+        earlier on this domain (every earlier MAP, full or held-out, whichever budget planned it)
+        is planned with the refiner's budget: its warm start, the library's best under ``w``,
+        already holds the earlier plan. Pool plans (:meth:`pool_features`) keep π's budget.
         """
         w = np.asarray(w, dtype=float)
         knots = self._plan(self._planner_for(w), w, np.arange(len(self.scene.starts)))
@@ -265,7 +266,8 @@ class SceneDomain(Domain):
         return knots
 
     def _planner_for(self, w: np.ndarray) -> SamplingPlanner:
-        """π's planner for ``w``, or the refiner when ``w`` is near a reward π was planned for."""
+        """π's planner for ``w``, or the refiner when ``w`` is near a reward π was planned for
+        (``replan_cosine``); ``w``'s direction is recorded either way."""
         near = self.planning.replan_cosine
         direction = normalize(w)
         earlier = self._plan_directions
@@ -301,8 +303,9 @@ class SceneDomain(Domain):
     def pool_features(
         self, policy: np.ndarray, entries: Sequence[int] | np.ndarray | None = None
     ) -> np.ndarray:
-        """Features ``(P, k)`` of the policy's trajectories from the demonstration pool: the same
-        planner for the reward the policy was planned for, from each pool start. Only the pool
+        """Features ``(P, k)`` of the policy's trajectories from the demonstration pool: π's
+        planner (π's budget, whatever budget planned the policy from the evaluation starts) for
+        the reward the policy was planned for, from each pool start. Only the pool
         entries in ``entries`` (default: all) are planned, each once per policy (cached); rows of
         entries not yet planned are NaN."""
         key = self.policy_key(policy)
@@ -336,7 +339,7 @@ class SceneDomain(Domain):
     def pool_regrets(self, weights: np.ndarray, policy: np.ndarray) -> np.ndarray:
         """Per-sample EVD ``(N, P)`` of ``policy`` (planned by :meth:`plan`) at each pool start
         (Eq. 13's input): the library's best there minus the sample's value of the trajectory
-        the same planner makes for the policy's reward from that start."""
+        π's planner makes for the policy's reward from that start (:meth:`pool_features`)."""
         weights = np.atleast_2d(weights)
         mu = self.pool_features(policy)  # first: planning from the pool joins the library
         return self.vstar.library_values(weights, self.pool) - weights @ mu.T

@@ -46,7 +46,7 @@ class PlanningSettings(BaseModel):
         ge=0,
         description="V*: rounds of the local quadratic model's proposals for the nEVD "
         "tail's samples from every evaluation start, after refinement "
-        "(mjsuff.scenes.surrogate)",
+        "(mjsuff.scenes.surrogate); π's plans are polished as many rounds",
     )
     polish_neighbours: int = Field(
         160,
@@ -65,9 +65,11 @@ class PlanningSettings(BaseModel):
         None,
         gt=0.0,
         le=1.0,
-        description="π for a reward within this cosine of one π was already planned for (the "
-        "last check's MAP, moved little) is planned with the refinement budget instead, "
-        "warm-started from the library as always; unset: always π's budget",
+        description="π from the evaluation starts for a reward within this cosine of any reward "
+        "π was planned for earlier on the instance (every earlier MAP, full or held-out, "
+        "whichever budget planned it) is planned with the refinement budget instead, "
+        "warm-started from the library as always (pool plans keep π's budget); unset: always "
+        "π's budget",
     )
     seed_directions: int = Field(
         8,
