@@ -10,6 +10,12 @@ def normalize(x: np.ndarray) -> np.ndarray:
     return x / np.linalg.norm(x, axis=-1, keepdims=True)
 
 
+def near_any(directions: np.ndarray, direction: np.ndarray, cosine: float) -> bool:
+    """Whether unit ``direction`` ``(k,)`` lies within ``cosine`` of any row of unit
+    ``directions`` ``(m, k)`` (False when there are none)."""
+    return bool(len(directions)) and bool((directions @ direction).max() >= cosine)
+
+
 def random_unit_vectors(rng: np.random.Generator, n: int, k: int) -> np.ndarray:
     """``n`` independent uniform draws from the unit sphere in ``R^k`` -> ``(n, k)``."""
     return normalize(rng.standard_normal((n, k)))

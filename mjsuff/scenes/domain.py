@@ -53,7 +53,7 @@ from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.search import library_warm, polish_library
 from mjsuff.scenes.truth import converge_truth, search_truth
 from mjsuff.scenes.vstar import LibraryVStar
-from mjsuff.sphere import normalize, random_negative_unit_vectors
+from mjsuff.sphere import near_any, normalize, random_negative_unit_vectors
 
 if TYPE_CHECKING:
     from mjsuff.experts.expert import Expert
@@ -272,7 +272,7 @@ class SceneDomain(Domain):
         direction = normalize(w)
         earlier = self._plan_directions
         self._plan_directions = np.concatenate([earlier, direction[None]])
-        if near is not None and len(earlier) and (earlier @ direction).max() >= near:
+        if near is not None and near_any(earlier, direction, near):
             self.replans += 1
             return self.refiner
         return self.planner

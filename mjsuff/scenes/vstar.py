@@ -30,7 +30,7 @@ from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
 from mjsuff.scenes.scene import Scene
 from mjsuff.scenes.search import library_warm, polish_library
-from mjsuff.sphere import normalize
+from mjsuff.sphere import near_any, normalize
 
 
 class LibraryVStar:
@@ -161,7 +161,7 @@ class LibraryVStar:
         """Record ``direction`` as refined or planned from ``start``; False, recording nothing,
         when one within ``revisit_cosine`` of it already is."""
         done = self.refined[start]
-        if len(done) and (done @ direction).max() >= self.planning.revisit_cosine:
+        if near_any(done, direction, self.planning.revisit_cosine):
             return False
         self.refined[start] = np.concatenate([done, direction[None]])
         return True
