@@ -196,3 +196,30 @@ def test_correction_makes_the_demo_locally_optimal_under_w_star():
         _, features = scene.simulate_controls(start, batch)
         assert np.sum(features @ w > after.value) <= 2
     assert improved >= 1  # the expert's path family is not locally optimal (docs/issue-17-history.md)
+
+
+def test_first_candidates_run_once_per_start_and_change_no_demo(setup):
+    """The demo from a start and its candidate set share one execution of the first candidates
+    (``Expert.first_candidates``): it runs once per start, equals a fresh execution bit for bit,
+    and a demo made from the kept one equals a demo made cold."""
+    _, scene, expert = setup
+    w = -unit(np.arange(1, scene.num_features + 1))
+    start = scene.starts[2]
+    cold = type(expert)(scene).demonstrate(start, w, np.random.default_rng(7))
+    warm_expert = type(expert)(scene)
+    calls = []
+    execute = warm_expert.execute
+    warm_expert.execute = lambda q, params: calls.append(params) or execute(q, params)
+    done, failures = warm_expert.first_candidates(start)
+    failures.append("changed by the caller")
+    again, failures_again = warm_expert.first_candidates(start)
+    warm = warm_expert.demonstrate(start, w, np.random.default_rng(7))
+    coarse = warm_expert.coarse_params(start)
+    assert sum(np.array_equal(p, coarse) for p in calls) == 1 and again is done
+    assert "changed by the caller" not in failures_again
+    fresh, _ = expert.execute(start, expert.coarse_params(start))
+    np.testing.assert_array_equal(done.features, fresh.features)
+    np.testing.assert_array_equal(done.rollouts.qpos, fresh.rollouts.qpos)
+    for name in ("controls", "qpos", "features", "executed", "intended", "params"):
+        np.testing.assert_array_equal(getattr(warm, name), getattr(cold, name))
+    assert warm.value == cold.value and warm.candidates == cold.candidates

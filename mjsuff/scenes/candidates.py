@@ -117,13 +117,13 @@ class CandidateSets:
         return Demo(start=demo.start, data={"features": phi})
 
     def family(self, start: int) -> np.ndarray:
-        """Features of the demonstrator's first candidates (``Expert.coarse_params``) executed
-        from library start ``start`` ``(M, k)``, those it could follow; cached per start."""
+        """Features of the demonstrator's first candidates (``Expert.first_candidates``: the
+        execution its demo from that start ran) from library start ``start`` ``(M, k)``, those it
+        could follow; cached per start."""
         if start not in self._family:
             if self.expert is None:
                 raise RuntimeError("candidates = 'family' needs the domain's expert")
-            q = self.scene.all_starts[start]
-            done, _ = self.expert.execute(q, self.expert.coarse_params(q))
+            done, _ = self.expert.first_candidates(self.scene.all_starts[start])
             features = done.features.reshape(-1, self.scene.num_features)
             self._family[start] = features[np.isfinite(features).all(axis=1)]
         return self._family[start]

@@ -191,7 +191,7 @@ class SceneDomain(Domain):
                 _, feats = scene.simulate(start[None], knots)
                 self.library.add(i, feats, knots)
         for i, start in enumerate(scene.all_starts):
-            done, _ = expert.execute(start, expert.primitives(start))
+            done = expert.executed_primitives(start)
             if done.knots is not None and len(done.knots):
                 self.library.add(i, done.features, done.knots)
 
