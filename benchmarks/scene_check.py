@@ -4,7 +4,8 @@ One check = the posterior from 10 demos (the pool's starts; MCMC under the scene
 500 samples, until converged), π_MAP (planned from every evaluation start), ``V*`` of every
 sample from the library with refinement of the nEVD tail (as the replicate loop does), nEVD and
 the α-VaR bound, with 16 evaluation starts and the scenario file's planning budgets. Printed: the total and
-the share spent building the demos' candidate sets (simulating the perturbed demos), sampling,
+the share spent building the demos' candidate sets (simulating the perturbed demos; the
+demonstrator's first candidates are those its demo executed, ``Expert.first_candidates``), sampling,
 planning π_MAP and ``V*``; then a second check after an 11th demo (the loop's warm state, where
 ``V*`` refinement skips directions already refined). Building the instance and the expert's demos
 are timed apart (they are not part of a check).
@@ -65,6 +66,7 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     )
     t["steps"] = post.steps
     t["replans"] = domain.replans
+    t["extra_polish"] = domain.vstar.extra_polish_rounds
     return t
 
 
@@ -104,13 +106,14 @@ def main() -> None:
             f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)"
         )
         for label, t in (("first check", first), ("warm check (11th demo)", second)):
-            parts = {k: v for k, v in t.items() if k not in ("bound", "steps", "replans")}
+            parts = {k: v for k, v in t.items() if k not in ("bound", "steps", "replans", "extra_polish")}
             total = sum(parts.values())
             shares = ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in parts.items())
             print(
                 f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}; "
                 f"{t['steps']} sampler steps per chain; π_MAP with the refinement budget "
-                f"(replan_cosine) in {t['replans']} check(s) so far"
+                f"(replan_cosine) in {t['replans']} check(s), extra polish rounds "
+                f"(polish_extra_rounds) {t['extra_polish']}, so far"
             )
 
 

@@ -316,6 +316,56 @@ def test_pi_for_a_reward_near_one_planned_gets_the_refinement_budget(case, repla
     assert probe.replans == (1 if replan_cosine else 0)
 
 
+@pytest.mark.parametrize("extra_gain", [1e-9, 0.99])
+def test_extra_polish_rounds_run_only_while_the_round_before_raised_the_tail(case, extra_gain, monkeypatch):
+    """``planning.polish_extra_rounds``: after ``polish_rounds`` rounds, another round runs only
+    when the round before raised some tail (sample, start)'s V* by more than
+    ``polish_extra_gain`` of its V* − V_rand, at most that many more. A gain of 0.99 is never
+    reached (exactly ``polish_rounds`` rounds); 1e-9 is reached by every round that improves
+    anything."""
+    import mjsuff.scenes.vstar as vstar
+
+    domain, _ = case
+    probe = copy.deepcopy(domain)
+    with_planning(
+        probe, refine_rounds=0, polish_rounds=1, polish_extra_rounds=2, polish_extra_gain=extra_gain
+    )
+    gains, real = [], vstar.polish_library
+
+    def measured(scene, library, starts, weights, *args):
+        def values():
+            pairs = zip(starts, weights, strict=True)
+            return np.array([library.best(int(s), w[None])[0][0] for s, w in pairs])
+
+        before = values()
+        real(scene, library, starts, weights, *args)
+        after = values()
+        scale = after - np.einsum("nk,nk->n", weights, probe.vstar.random_mu[starts])
+        gains.append(np.max((after - before) / scale))
+
+    monkeypatch.setattr(vstar, "polish_library", measured)
+    rng = np.random.default_rng(15)
+    robot = domain.start_feature_expectations(domain.plan(domain.sample_prior(rng, 1)[0]))
+    probe.optimal_start_values(domain.sample_prior(rng, 60), robot=robot)
+    extra = len(gains) - 1
+    assert probe.vstar.extra_polish_rounds == extra
+    assert all(g > extra_gain for g in gains[:extra])  # every extra round followed a raise
+    assert extra == 2 or gains[extra] <= extra_gain  # and they stopped at the first round without one
+    if extra_gain > 0.5:
+        assert extra == 0
+    else:
+        assert extra >= 1  # the first round raises something on these instances
+
+
+def test_extra_polish_rounds_need_a_round_to_follow():
+    from pydantic import ValidationError
+
+    from mjsuff.scenes.planning import PlanningSettings
+
+    with pytest.raises(ValidationError, match="needs polish_rounds"):
+        PlanningSettings(polish_rounds=0, polish_extra_rounds=1)
+
+
 def test_tolerances_define_unchanged_and_matching(case):
     domain, demos = case
     policy = domain.plan(domain.true_weights)

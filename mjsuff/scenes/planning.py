@@ -6,7 +6,7 @@ A scenario sets them under ``[domain.params.planning]``; they trade run time aga
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from mjsuff.scenes.planner_config import PlannerConfig
 
@@ -47,6 +47,20 @@ class PlanningSettings(BaseModel):
         description="V*: rounds of the local quadratic model's proposals for the nEVD "
         "tail's samples from every evaluation start, after refinement "
         "(mjsuff.scenes.surrogate); π's plans are polished as many rounds",
+    )
+    polish_extra_rounds: int = Field(
+        0,
+        ge=0,
+        description="V*: after those, up to this many more polish rounds, each only while the "
+        "round before raised some tail sample's V* from some evaluation start by more than "
+        "polish_extra_gain of its V* − V_rand there (a wide posterior's tail; π's plans get "
+        "none); needs polish_rounds ≥ 1",
+    )
+    polish_extra_gain: float = Field(
+        0.01,
+        gt=0.0,
+        lt=1.0,
+        description="the raise (a share of V* − V_rand) above which an extra polish round runs",
     )
     polish_neighbours: int = Field(
         160,
@@ -101,6 +115,15 @@ class PlanningSettings(BaseModel):
         "in the first (after it the cloud is about 58% of a pass's steps and raised no start by "
         "more than 0.001 in 7 passes, stop 55, benchmarks/truth_phases.py)",
     )
+
+    @model_validator(mode="after")
+    def _check(self) -> PlanningSettings:
+        if self.polish_extra_rounds and not self.polish_rounds:
+            raise ValueError(
+                f"polish_extra_rounds ({self.polish_extra_rounds}) needs polish_rounds ≥ 1: an "
+                "extra round runs only after a round that raised the tail's V*"
+            )
+        return self
 
     def resolved(
         self, planner: PlannerConfig, refine: PlannerConfig, seed: PlannerConfig

@@ -12,7 +12,8 @@ costs one matrix product. Given the robot's policy, effort goes where the bound 
    takes and those next below it; the ones above it stay above it however much they rise) are each
    planned by themselves with π's budget from every evaluation start;
 3. for every tail sample, the local quadratic model proposes where its own optimum is, in
-   ``polish_rounds`` rounds.
+   ``polish_rounds`` rounds, and up to ``polish_extra_rounds`` more while a round still raises
+   some tail sample's ``V*`` by more than ``polish_extra_gain`` of its ``V* − V_rand``.
 
 Everything simulated joins the library, and the answer is the library maximum again, so it never
 drops. A (sample, start) within ``revisit_cosine`` of a direction already refined or planned there
@@ -42,7 +43,8 @@ class LibraryVStar:
         planner: π's planner (the ``plan_samples`` stage).
         refiner: The short warm-started planner of the refinement rounds.
         planning: The budgets (``refine_rounds``, ``refine_groups``, ``tail_share``,
-            ``plan_samples``, ``polish_rounds``, ``polish_neighbours``, ``revisit_cosine``).
+            ``plan_samples``, ``polish_rounds``, ``polish_extra_rounds``, ``polish_extra_gain``,
+            ``polish_neighbours``, ``revisit_cosine``).
         start_weights: The evaluation starts' weights ``(S,)`` in a policy's value.
         random_mu: The random policy's feature expectations ``(S, k)`` (nEVD's denominator).
         rng: Randomness of the searches.
@@ -63,6 +65,8 @@ class LibraryVStar:
         self.planning, self.start_weights, self.random_mu, self.rng = planning, start_weights, random_mu, rng
         #: Per library start, the directions ``(m, k)`` refined or planned from it so far.
         self.refined = [np.empty((0, scene.num_features)) for _ in range(len(scene.all_starts))]
+        #: Extra polish rounds run so far (``polish_extra_rounds``).
+        self.extra_polish_rounds = 0
 
     def start_values(
         self,
@@ -87,17 +91,34 @@ class LibraryVStar:
                 break
         if refine and self.planning.plan_samples:
             self.plan_decisive(weights, robot, bound_index)
-        for _ in range(self.planning.polish_rounds if refine else 0):
+        if refine:
+            self.polish(weights, robot)
+        return self.library_values(weights, range(s))
+
+    def polish(self, weights: np.ndarray, robot: np.ndarray | None) -> None:
+        """``polish_rounds`` rounds of the local quadratic model for the nEVD tail's samples from
+        every evaluation start, then up to ``polish_extra_rounds`` more while the round before
+        raised some (sample, start)'s ``V*`` by more than ``polish_extra_gain`` of its
+        ``V* − V_rand`` (the tail is ranked again before each round)."""
+        p, s = self.planning, len(self.scene.starts)
+        for r in range(p.polish_rounds + p.polish_extra_rounds):
+            self.extra_polish_rounds += r >= p.polish_rounds
             focus = weights[self.tail(weights, robot)]
+            measured = r + 1 >= p.polish_rounds and r + 1 < p.polish_rounds + p.polish_extra_rounds
+            before = self.library_values(focus, range(s)) if measured else None
             polish_library(
                 self.scene,
                 self.library,
                 np.repeat(np.arange(s), len(focus)),
                 np.tile(focus, (s, 1)),
                 1,
-                self.planning.polish_neighbours,
+                p.polish_neighbours,
             )
-        return self.library_values(weights, range(s))
+            if before is not None:
+                after = self.library_values(focus, range(s))
+                scale = np.maximum(after - focus @ self.random_mu.T, 1e-12)
+                if np.max((after - before) / scale) <= p.polish_extra_gain:
+                    break
 
     def library_values(self, weights: np.ndarray, starts) -> np.ndarray:
         """The library's best value ``(N, len(starts))`` under each of ``weights`` ``(N, k)``."""
