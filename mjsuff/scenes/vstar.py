@@ -101,11 +101,14 @@ class LibraryVStar:
         raised some (sample, start)'s ``V*`` by more than ``polish_extra_gain`` of its
         ``V* − V_rand`` (the tail is ranked again before each round)."""
         p, s = self.planning, len(self.scene.starts)
+        gain = np.inf  # the round before's largest raise, in units of V* − V_rand
         for r in range(p.polish_rounds + p.polish_extra_rounds):
-            self.extra_polish_rounds += r >= p.polish_rounds
+            if r >= p.polish_rounds:
+                if gain <= p.polish_extra_gain:
+                    break
+                self.extra_polish_rounds += 1
             focus = weights[self.tail(weights, robot)]
-            measured = r + 1 >= p.polish_rounds and r + 1 < p.polish_rounds + p.polish_extra_rounds
-            before = self.library_values(focus, range(s)) if measured else None
+            before = self.library_values(focus, range(s)) if p.polish_extra_rounds else None
             polish_library(
                 self.scene,
                 self.library,
@@ -116,9 +119,7 @@ class LibraryVStar:
             )
             if before is not None:
                 after = self.library_values(focus, range(s))
-                scale = np.maximum(after - focus @ self.random_mu.T, 1e-12)
-                if np.max((after - before) / scale) <= p.polish_extra_gain:
-                    break
+                gain = np.max((after - before) / np.maximum(after - focus @ self.random_mu.T, 1e-12))
 
     def library_values(self, weights: np.ndarray, starts) -> np.ndarray:
         """The library's best value ``(N, len(starts))`` under each of ``weights`` ``(N, k)``."""
