@@ -24,8 +24,8 @@ every start, and with plans of ``seed_directions`` prior draws (a wide search), 
 mode's optimum before the first demo.
 
 Likelihood (DESIGN, trajectory-level Bayesian IRL): a Boltzmann choice of each demo among its
-candidate set (``mjsuff.scenes.candidates``); a batch of weights costs one matrix product and a
-log-sum-exp per demo.
+candidate set (``mjsuff.scenes.candidates``), in ``mjsuff.scenes.likelihood``: a batch of weights
+costs one matrix product and a log-sum-exp per demo.
 
 ``optimal_start_values`` is the library's best, refined where the bound is decided
 (``mjsuff.scenes.vstar``); plans (π for a reward) are polished by the local quadratic model for
@@ -45,6 +45,7 @@ import numpy as np
 from mjsuff.domain import BoundIndex, Demo, Domain, FinalTruth
 from mjsuff.scenes.candidates import CandidateSets
 from mjsuff.scenes.library import TrajectoryLibrary
+from mjsuff.scenes.likelihood import demo_log_likelihoods
 from mjsuff.scenes.params import Candidates, SceneParams
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planning import PlanningSettings
@@ -449,35 +450,13 @@ class SceneDomain(Domain):
         return int(np.sum(values[1:] > values[0] + 1e-12))
 
     def demo_log_likelihoods(self, weights: np.ndarray, demos: list[Demo], beta: float) -> np.ndarray:
-        """``log P(φ_j | w)`` of each demo for weights ``(N, k)`` -> ``(N, D)`` (module docstring)."""
-        weights = np.atleast_2d(weights)
-        per_demo = np.zeros((len(weights), len(demos)))
-        for j, demo in enumerate(demos):
-            values = beta * (weights @ self.candidate_features(demo).T)
-            per_demo[:, j] = values[:, 0] - row_log_sum_exp(values)
-        return per_demo
+        """``log P(φ_j | w)`` of each demo for weights ``(N, k)`` -> ``(N, D)``
+        (``mjsuff.scenes.likelihood``)."""
+        return demo_log_likelihoods(weights, [self.candidate_features(demo) for demo in demos], beta)
 
     def choice_counts(self, demos: list[Demo]) -> np.ndarray:
         """The size of each demo's candidate set ``C_j``, the demo included."""
         return np.array([len(self.candidate_features(demo)) for demo in demos])
-
-
-def row_log_sum_exp(values: np.ndarray) -> np.ndarray:
-    """``log Σ_m exp(values[n, m])`` per row of a finite ``(N, M)`` array -> ``(N,)``.
-
-    SciPy's algorithm (``scipy.special.logsumexp``, 1.17: the maxima taken out of the sum, which
-    goes through ``log1p``), written for finite 2-D rows without its array-API dispatch and
-    copies: the same operations in the same order, so the same rounding, at a third of the time
-    (the sampler's likelihood is mostly this).
-    """
-    row_max = values.max(axis=1, keepdims=True)
-    at_max = values == row_max
-    terms = np.exp(values - row_max)
-    terms[at_max] = 0.0
-    rest = terms.sum(axis=1, keepdims=True)
-    ties = at_max.sum(axis=1, keepdims=True, dtype=float)
-    rest = np.where(rest == 0, rest, rest / ties)
-    return (np.log1p(rest) + np.log(ties) + row_max)[:, 0]
 
 
 def draw_instance(
