@@ -17,6 +17,7 @@ alternating rounds, one core for BLAS as in a replicate) and says whether the bi
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -26,6 +27,7 @@ from scipy.special import logsumexp
 from threadpoolctl import threadpool_limits
 
 from mjsuff.experiment.replicate import make_instance
+from mjsuff.experiment.run_summary import machine_info
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.scenes.likelihood import demo_log_likelihoods
 from mjsuff.sphere import random_unit_vectors
@@ -65,6 +67,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=7)
     args = parser.parse_args()
+    machine = machine_info()
+    print(
+        f"machine: {machine['cpu']}, {os.cpu_count()} cores; "
+        f"BLAS {machine['blas']}; MuJoCo {machine['mujoco']}"
+    )
     scenario = load_scenario(SCENARIOS / "lava_reacher.toml")
     with threadpool_limits(limits=1):
         domain = make_instance(scenario, 0)

@@ -16,6 +16,7 @@ are timed apart (they are not part of a check).
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -24,6 +25,7 @@ from threadpoolctl import threadpool_limits
 
 from mjsuff.bounds import normalized_evd, policy_values, upper_var_bound
 from mjsuff.experiment.replicate import make_instance, nevd_bound_index
+from mjsuff.experiment.run_summary import machine_info
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.posterior import sample_posterior
 
@@ -82,6 +84,11 @@ def main() -> None:
         help="scenario override, e.g. domain.params.planning.plan_samples=5 (repeatable)",
     )
     args = parser.parse_args()
+    machine = machine_info()
+    print(
+        f"machine: {machine['cpu']}, {os.cpu_count()} cores; "
+        f"BLAS {machine['blas']}; MuJoCo {machine['mujoco']}"
+    )
     for name in args.scenes:
         scenario = load_scenario(
             SCENARIOS / f"{name}.toml", [f"domain.params.eval_starts={args.starts}", *args.set]
