@@ -50,9 +50,24 @@ def run(name, out, *extra):
     return code, (pd.read_parquet(out / "steps.parquet") if code == 0 else None)
 
 
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """The tiny run of a scene, made once per module: two tests read the same command's output
+    (the reacher's live run is the saved demo set's reference). Read it, never write into it."""
+    made = {}
+
+    def get(name):
+        if name not in made:
+            out = tmp_path_factory.mktemp(name) / "run"
+            made[name] = (out, *run(name, out))
+        return made[name]
+
+    return get
+
+
 @pytest.mark.parametrize("name", ["lava_reacher", "lander"])
-def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
-    code, steps = run(name, tmp_path / "a")
+def test_scene_run_is_complete_sound_and_seeded(name, tmp_path, tiny_run):
+    first, code, steps = tiny_run(name)
     assert code == 0
     assert sorted(steps["step"].unique()) == [1, 2, 3]
     assert set(steps["rule"]) == {"nevd", "piob", "patience", "validation"}
@@ -64,7 +79,7 @@ def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
     counts = steps.drop_duplicates("step").sort_values("step")
     assert counts["simulated_steps"].is_monotonic_increasing and counts["simulated_steps"].iloc[0] > 0
     assert (counts["diverged_rollouts"] >= 0).all()
-    report = json.loads((tmp_path / "a" / "run.json").read_text())
+    report = json.loads((first / "run.json").read_text())
     assert report["simulated_steps"] == counts["simulated_steps"].iloc[-1]
     assert report["diverged_rollouts"] == counts["diverged_rollouts"].iloc[-1]
     # ... and how its ground truth was raised and searched again (one replicate: its row values).
@@ -78,7 +93,7 @@ def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
         "unsettled_replicates": int(last["truth_last_gain"] > TRUTH_SETTLED),
     }
     # The run's recording shows the scene, each demo (playable on sim_time) and π_MAP.
-    recording = Recording(tmp_path / "a" / RECORDING)
+    recording = Recording(first / RECORDING)
     paths = recording.entity_paths()
     assert {"/r0/scene/pi_map", "/r0/scene/demos/1", "/r0/scene/demos/3"} <= paths
     assert any(p.startswith("/r0/scene/bodies/") for p in paths)
@@ -97,7 +112,7 @@ def test_scene_run_is_complete_sound_and_seeded(name, tmp_path):
     assert (steps["simulated_steps"] >= again["simulated_steps"]).all()
 
 
-def test_saved_demo_set_reproduces_the_live_run(tmp_path, monkeypatch):
+def test_saved_demo_set_reproduces_the_live_run(tmp_path, monkeypatch, tiny_run):
     name = "lava_reacher"
     demos = tmp_path / "d.npz"
     sets = ["--set", "domain.params.eval_starts=3"]
@@ -107,7 +122,7 @@ def test_saved_demo_set_reproduces_the_live_run(tmp_path, monkeypatch):
         )
         == 0
     )
-    code, live = run(name, tmp_path / "live")
+    _, code, live = tiny_run(name)
     assert code == 0
     # The served run must not ask the live expert at all.
     monkeypatch.setattr(SceneDomain, "demonstrate", lambda *a, **k: pytest.fail("expert asked"))
