@@ -7,12 +7,12 @@ import signal
 import subprocess
 import sys
 import threading
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 
 import pytest
 
-from mjsuff.experiment.backend import ReplicateTask
+from mjsuff.experiment.backend import ReplicateResult, ReplicateTask
 from mjsuff.experiment.local_backend import LocalBackend, _sigint_held
 from tests.conftest import small_scenario
 
@@ -113,3 +113,46 @@ def test_a_ctrl_c_while_the_processes_start_ends_the_run_cleanly(tmp_path, progr
     # parent's EOFError waiting for it).
     assert proc.stdout.strip() == "interrupted; children left: 0", proc.stdout + proc.stderr
     assert "Traceback" not in proc.stderr, proc.stderr
+
+
+#: How each _RecordingPool was made: (processes, the workers' initializer arguments).
+_POOLS_MADE: list[tuple[int, tuple]] = []
+
+
+class _RecordingPool:
+    """Stands in for the process pool: records how it was made and runs each task's result."""
+
+    def __init__(self, workers, mp_context, initializer, initargs):
+        _POOLS_MADE.append((workers, initargs))
+
+    def submit(self, fn, task, events):
+        future = Future()
+        future.set_result(ReplicateResult([{"replicate": task.replicate}]))
+        return future
+
+    def shutdown(self, wait, cancel_futures):
+        pass
+
+
+@pytest.mark.parametrize(
+    ("cores", "workers", "replicates", "started", "threads"),
+    [
+        (2, None, 1, 1, 2),  # one replicate gets both cores (it got one before stop 61)
+        (2, None, 3, 2, 1),
+        (8, 2, 1, 1, 8),
+        (8, None, 3, 3, 2),
+        (8, 3, 5, 3, 2),
+        (1, 4, 4, 4, 1),
+    ],
+)
+def test_rollout_threads_share_the_cores_among_the_processes_started(
+    monkeypatch, cores, workers, replicates, started, threads
+):
+    monkeypatch.setattr("mjsuff.experiment.local_backend.os.cpu_count", lambda: cores)
+    monkeypatch.setattr("mjsuff.experiment.local_backend.ProcessPoolExecutor", _RecordingPool)
+    _POOLS_MADE.clear()
+    scenario = small_scenario(replicates=replicates)
+    tasks = [ReplicateTask((0, r), scenario, r) for r in range(replicates)]
+    done = [task.replicate for task, _ in LocalBackend(workers).run(tasks)]
+    assert sorted(done) == list(range(replicates))
+    assert _POOLS_MADE == [(started, (threads,))]

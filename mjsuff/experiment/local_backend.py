@@ -1,5 +1,6 @@
 """``LocalBackend(workers)``: a pool of ``workers`` local processes (``spawn``), with per-step
-progress through a queue. MuJoCo's rollout threads are divided among the workers."""
+progress through a queue. MuJoCo's rollout threads are divided among the processes started (no
+more than there are replicates to run)."""
 
 from __future__ import annotations
 
@@ -91,8 +92,9 @@ class LocalBackend(Backend):
     """A pool of local worker processes.
 
     Args:
-        workers: Number of processes (default: all cores). MuJoCo rollouts in each get
-            ``cores // workers`` threads (at least one).
+        workers: Most processes (default: all cores); a run starts no more than it has
+            replicates. MuJoCo rollouts in each get ``cores // processes started`` threads (at
+            least one): a single replicate gets every core.
     """
 
     name = "local"
@@ -101,8 +103,12 @@ class LocalBackend(Backend):
         cores = os.cpu_count() or 1
         if workers is not None and workers < 1:
             raise BackendError(f"--workers: expected a positive number, got {workers}")
+        self.cores = cores
         self.workers = workers or cores
-        self.sim_threads = max(1, cores // self.workers)
+
+    def rollout_threads(self, processes: int) -> int:
+        """MuJoCo rollout threads of each of ``processes`` workers: the cores shared among them."""
+        return max(1, self.cores // processes)
 
     def describe(self) -> str:
         return f"local, {self.workers} worker process(es)"
@@ -141,7 +147,10 @@ class LocalBackend(Backend):
 
         drainer = threading.Thread(target=drain, daemon=True) if events is not None else None
         pool = ProcessPoolExecutor(
-            workers, mp_context=context, initializer=_worker_init, initargs=(self.sim_threads,)
+            workers,
+            mp_context=context,
+            initializer=_worker_init,
+            initargs=(self.rollout_threads(workers),),
         )
         try:
             if drainer is not None:
