@@ -8,7 +8,11 @@ the share spent building the demos' candidate sets (simulating the perturbed dem
 demonstrator's first candidates are those its demo executed, ``Expert.first_candidates``), sampling,
 planning π_MAP and ``V*``; then a second check after an 11th demo (the loop's warm state, where
 ``V*`` refinement skips directions already refined). Building the instance and the expert's demos
-are timed apart (they are not part of a check).
+are timed apart (they are not part of a check). Beside each phase that simulates: the MuJoCo
+steps it simulated and the time raw ``mujoco.rollout`` takes for as many steps of the scene's model
+(its throughput measured in the same run, same threads, on trajectories the checks planned
+from the evaluation starts): the phase's floor at its rollout count. Time above the floor is
+overhead; below it a phase gets only with fewer rollouts.
 
     python benchmarks/scene_check.py [--scenes lava_reacher lander] [--starts 16] [--set KEY=VALUE ...]
 """
@@ -21,6 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from mujoco import rollout
 from threadpoolctl import threadpool_limits
 
 from mjsuff.bounds import normalized_evd, policy_values, upper_var_bound
@@ -35,11 +40,17 @@ NUM_DEMOS = 10
 
 def check(domain, demos, scenario, rng) -> dict[str, float]:
     beta, suff = scenario.demos.beta, scenario.sufficiency
-    t = {}
+    t, steps = {}, {}
+
+    def simulated() -> int:
+        return domain.simulation_stats()["simulated_steps"]
+
+    n0 = simulated()
     t0 = time.perf_counter()
     for demo in demos:
         domain.candidate_features(demo)
     t["candidates"] = time.perf_counter() - t0
+    steps["candidates"] = simulated() - n0
     t0 = time.perf_counter()
     post = sample_posterior(
         lambda w: domain.log_prior(w) + domain.log_likelihood(w, demos, beta),
@@ -49,16 +60,18 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
         initial=domain.sample_prior(rng, 4 * scenario.sampler().chains),
     )
     t["sampling"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    n0, t0 = simulated(), time.perf_counter()
     policy = domain.plan(post.map_weights)
     mu = domain.start_feature_expectations(policy)
     t["planning"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    steps["planning"] = simulated() - n0
+    n0, t0 = simulated(), time.perf_counter()
     bound_index = nevd_bound_index(post, suff.alpha, suff.delta, suff.quantile_method)
     v_opt = (
         domain.optimal_start_values(post.samples, robot=mu, bound_index=bound_index) @ domain.start_weights
     )
     t["V*"] = time.perf_counter() - t0
+    steps["V*"] = simulated() - n0
     sw, w = domain.start_weights, post.samples
     nevd = normalized_evd(
         v_opt, policy_values(w, mu, sw), policy_values(w, domain.random_start_feature_expectations(), sw)
@@ -69,7 +82,28 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     t["steps"] = post.steps
     t["replans"] = domain.replans
     t["extra_polish"] = domain.vstar.extra_polish_rounds
-    return t
+    return t, steps
+
+
+def raw_rollout_rate(domain, rng, rollouts: int = 1024, rounds: int = 3) -> float:
+    """MuJoCo steps per second of raw ``mujoco.rollout`` on the scene's model with the scene's
+    simulator (its threads and ``mjData``s), for ``rollouts`` trajectories drawn from the
+    evaluation starts' libraries (knots the checks simulated), the best of ``rounds``: nothing
+    interpolated, scored or checked."""
+    scene = domain.scene
+    spline, sim = scene.spline, scene.simulator
+    starts = rng.integers(len(scene.starts), size=rollouts)
+    library = domain.library
+    knots = np.stack([library.arrays(int(s))[1][rng.integers(library.size(int(s)))] for s in starts])
+    qpos = scene.all_starts[starts]
+    controls = np.ascontiguousarray(spline.controls(knots, scene.anchor(qpos) if spline.anchored else None))
+    initial = np.ascontiguousarray(scene.start_states(qpos))
+    best = np.inf
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        rollout.rollout(sim.model, sim._datas, initial, controls)
+        best = min(best, time.perf_counter() - t0)
+    return rollouts * controls.shape[1] / best
 
 
 def main() -> None:
@@ -104,6 +138,7 @@ def main() -> None:
             demo_time = time.perf_counter() - t0
             first = check(domain, demos[:NUM_DEMOS], scenario, np.random.default_rng(2))
             second = check(domain, demos, scenario, np.random.default_rng(3))
+            rate = raw_rollout_rate(domain, np.random.default_rng(4))
         print(
             f"\n{name}: {args.starts} evaluation starts, {NUM_DEMOS} demos, "
             f"{scenario.posterior.num_samples} samples" + (f"; {' '.join(args.set)}" if args.set else "")
@@ -112,10 +147,18 @@ def main() -> None:
             f"  instance {build:.1f} s (random trajectories and seed plans); "
             f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)"
         )
-        for label, t in (("first check", first), ("warm check (11th demo)", second)):
+        print(
+            f"  raw mujoco.rollout: {rate / 1e6:.2f} million steps/s "
+            f"({domain.scene.simulator.threads} threads; the floor in [] below)"
+        )
+        for label, (t, steps) in (("first check", first), ("warm check (11th demo)", second)):
             parts = {k: v for k, v in t.items() if k not in ("bound", "steps", "replans", "extra_polish")}
             total = sum(parts.values())
-            shares = ", ".join(f"{k} {v:.1f} s ({v / total:.0%})" for k, v in parts.items())
+            shares = ", ".join(
+                f"{k} {v:.1f} s ({v / total:.0%})"
+                + (f" [{steps[k] / 1e6:.1f} M steps: {steps[k] / rate:.1f} s]" if steps.get(k) else "")
+                for k, v in parts.items()
+            )
             print(
                 f"  {label}: {total:.1f} s = {shares}; bound {t['bound']:.3f}; "
                 f"{t['steps']} sampler steps per chain; π_MAP with the refinement budget "
