@@ -5,6 +5,7 @@ import signal
 import pandas as pd
 import pytest
 
+from mjsuff.experiment.backend import ReplicateTask
 from mjsuff.experiment.backends import BackendError, LocalBackend, SerialBackend, make_backend
 from mjsuff.experiment.run_summary import RECORDING
 from mjsuff.experiment.runner import run_scenario
@@ -62,3 +63,53 @@ def test_backend_choices_are_checked():
     with pytest.raises(BackendError, match="--backend"):
         make_backend("slurm")
     assert isinstance(make_backend("local", workers=1), SerialBackend)
+
+
+class _FakeRay:
+    """Ray's calls the backend makes, in this process: records each remote's CPUs and threads."""
+
+    def __init__(self):
+        self.reserved, self.threads = [], []
+
+    def is_initialized(self):
+        return True
+
+    def remote(self, num_cpus):
+        self.reserved.append(num_cpus)
+        fake = self
+
+        class Remote:
+            @staticmethod
+            def remote(task, threads):
+                fake.threads.append(threads)
+                return task.replicate
+
+        return lambda fn: Remote
+
+    def wait(self, refs, num_returns):
+        return refs[:num_returns], refs[num_returns:]
+
+    def get(self, ref):
+        return ref
+
+
+@pytest.mark.parametrize(
+    ("address", "num_cpus", "cpus_per_task", "replicates", "cpus"),
+    [
+        (None, 2, None, 1, 2),  # one replicate on a local instance gets its CPUs (one before stop 61)
+        (None, 2, None, 3, 1),
+        (None, 8, None, 3, 2),
+        (None, 8, 3, 1, 3),  # asked for: as asked
+        ("10.0.0.1:6379", None, None, 1, 1),  # a cluster's CPUs are not this machine's
+    ],
+)
+def test_ray_tasks_share_the_cpus_of_a_local_instance(address, num_cpus, cpus_per_task, replicates, cpus):
+    pytest.importorskip("ray", reason="the ray extra is not installed")
+    from mjsuff.experiment.ray_backend import RayBackend
+
+    backend = RayBackend(address, num_cpus=num_cpus, cpus_per_task=cpus_per_task)
+    backend.ray = _FakeRay()
+    scenario = small_scenario(replicates=replicates)
+    tasks = [ReplicateTask((0, r), scenario, r) for r in range(replicates)]
+    assert sorted(result for _, result in backend.run(tasks)) == list(range(replicates))
+    assert backend.ray.reserved == [cpus] and backend.ray.threads == [cpus] * replicates

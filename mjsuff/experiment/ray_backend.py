@@ -35,18 +35,20 @@ class RayBackend(Backend):
             Ray instance with ``num_cpus`` CPUs (default: all cores).
         num_cpus: CPUs of the local instance (ignored with ``address``).
         cpus_per_task: CPUs each replicate reserves; MuJoCo rollouts use as many threads.
+            None: on a local instance its CPUs shared among the replicates (at least one each:
+            a single replicate gets them all); one on a cluster.
     """
 
     name = "ray"
 
     def __init__(
-        self, address: str | None = None, num_cpus: int | None = None, cpus_per_task: int = 1
+        self, address: str | None = None, num_cpus: int | None = None, cpus_per_task: int | None = None
     ) -> None:
         try:
             import ray
         except ImportError:
             raise BackendError("--backend ray: Ray is not installed; pip install 'mjsuff[ray]'") from None
-        if cpus_per_task < 1:
+        if cpus_per_task is not None and cpus_per_task < 1:
             raise BackendError(f"cpus_per_task: expected a positive number, got {cpus_per_task}")
         self.ray = ray
         self.address = address
@@ -104,8 +106,9 @@ class RayBackend(Backend):
         if not tasks:
             return
         self.connect()
-        remote = self.ray.remote(num_cpus=self.cpus_per_task)(_ray_execute)
-        pending = {remote.remote(t, self.cpus_per_task): t for t in tasks}
+        cpus = self.task_cpus(len(tasks))
+        remote = self.ray.remote(num_cpus=cpus)(_ray_execute)
+        pending = {remote.remote(t, cpus): t for t in tasks}
         try:
             while pending:
                 done, _ = self.ray.wait(list(pending), num_returns=1)
@@ -115,6 +118,15 @@ class RayBackend(Backend):
         finally:
             for ref in pending:
                 self.ray.cancel(ref, force=True)
+
+    def task_cpus(self, tasks: int) -> int:
+        """CPUs (and rollout threads) each of ``tasks`` replicates reserves (``cpus_per_task``)."""
+        if self.cpus_per_task is not None:
+            return self.cpus_per_task
+        if self.address:
+            return 1
+        cpus = self.num_cpus or os.cpu_count() or 1
+        return max(1, cpus // min(cpus, tasks))
 
     def shutdown(self) -> None:
         if self.ray.is_initialized():
