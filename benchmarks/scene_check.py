@@ -9,10 +9,9 @@ demonstrator's first candidates are those its demo executed, ``Expert.first_cand
 planning π_MAP and ``V*``; then a second check after an 11th demo (the loop's warm state, where
 ``V*`` refinement skips directions already refined). Building the instance and the expert's demos
 are timed apart (they are not part of a check). Beside each phase that simulates: the MuJoCo
-steps it simulated and the time raw ``mujoco.rollout`` takes for as many steps of the scene's model
-(its throughput measured in the same run, same threads, on trajectories the checks planned
-from the evaluation starts): the phase's floor at its rollout count. Time above the floor is
-overhead; below it a phase gets only with fewer rollouts.
+steps it simulated and the time spent inside ``mujoco.rollout`` for them (timed as it runs, so
+the machine's drift between runs does not enter): the phase's floor at its rollout count. Time
+above it is overhead; below it a phase gets only with fewer rollouts.
 
     python benchmarks/scene_check.py [--scenes lava_reacher lander] [--starts 16] [--set KEY=VALUE ...]
 """
@@ -35,6 +34,20 @@ from mjsuff.experiment.scenario import load_scenario
 from mjsuff.posterior import sample_posterior
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+#: Seconds spent inside ``mujoco.rollout`` so far (every scene simulates through it).
+IN_MUJOCO = [0.0]
+_rollout = rollout.rollout
+
+
+def _timed_rollout(*args, **kwargs):
+    t0 = time.perf_counter()
+    try:
+        return _rollout(*args, **kwargs)
+    finally:
+        IN_MUJOCO[0] += time.perf_counter() - t0
+
+
+rollout.rollout = _timed_rollout
 NUM_DEMOS = 10
 
 
@@ -42,8 +55,8 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     beta, suff = scenario.demos.beta, scenario.sufficiency
     t, steps = {}, {}
 
-    def simulated() -> int:
-        return domain.simulation_stats()["simulated_steps"]
+    def simulated() -> np.ndarray:  # MuJoCo steps so far, seconds inside mujoco.rollout so far
+        return np.array([domain.simulation_stats()["simulated_steps"], IN_MUJOCO[0]])
 
     n0 = simulated()
     t0 = time.perf_counter()
@@ -85,27 +98,6 @@ def check(domain, demos, scenario, rng) -> dict[str, float]:
     return t, steps
 
 
-def raw_rollout_rate(domain, rng, rollouts: int = 1024, rounds: int = 3) -> float:
-    """MuJoCo steps per second of raw ``mujoco.rollout`` on the scene's model with the scene's
-    simulator (its threads and ``mjData``s), for ``rollouts`` trajectories drawn from the
-    evaluation starts' libraries (knots the checks simulated), the best of ``rounds``: nothing
-    interpolated, scored or checked."""
-    scene = domain.scene
-    spline, sim = scene.spline, scene.simulator
-    starts = rng.integers(len(scene.starts), size=rollouts)
-    library = domain.library
-    knots = np.stack([library.arrays(int(s))[1][rng.integers(library.size(int(s)))] for s in starts])
-    qpos = scene.all_starts[starts]
-    controls = np.ascontiguousarray(spline.controls(knots, scene.anchor(qpos) if spline.anchored else None))
-    initial = np.ascontiguousarray(scene.start_states(qpos))
-    best = np.inf
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        rollout.rollout(sim.model, sim._datas, initial, controls)
-        best = min(best, time.perf_counter() - t0)
-    return rollouts * controls.shape[1] / best
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
@@ -138,7 +130,6 @@ def main() -> None:
             demo_time = time.perf_counter() - t0
             first = check(domain, demos[:NUM_DEMOS], scenario, np.random.default_rng(2))
             second = check(domain, demos, scenario, np.random.default_rng(3))
-            rate = raw_rollout_rate(domain, np.random.default_rng(4))
         print(
             f"\n{name}: {args.starts} evaluation starts, {NUM_DEMOS} demos, "
             f"{scenario.posterior.num_samples} samples" + (f"; {' '.join(args.set)}" if args.set else "")
@@ -147,16 +138,12 @@ def main() -> None:
             f"  instance {build:.1f} s (random trajectories and seed plans); "
             f"expert demos {demo_time / len(demos):.2f} s each (not part of a check)"
         )
-        print(
-            f"  raw mujoco.rollout: {rate / 1e6:.2f} million steps/s "
-            f"({domain.scene.simulator.threads} threads; the floor in [] below)"
-        )
         for label, (t, steps) in (("first check", first), ("warm check (11th demo)", second)):
             parts = {k: v for k, v in t.items() if k not in ("bound", "steps", "replans", "extra_polish")}
             total = sum(parts.values())
             shares = ", ".join(
                 f"{k} {v:.1f} s ({v / total:.0%})"
-                + (f" [{steps[k] / 1e6:.1f} M steps: {steps[k] / rate:.1f} s]" if steps.get(k) else "")
+                + (f" [{steps[k][0] / 1e6:.1f} M steps, {steps[k][1]:.1f} s in MuJoCo]" if k in steps else "")
                 for k, v in parts.items()
             )
             print(
