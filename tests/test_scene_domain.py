@@ -259,6 +259,26 @@ def test_plan_samples_plans_from_the_bound_down(case, monkeypatch):
     np.testing.assert_array_equal(planned[0], weights[order[9:12]])
 
 
+def test_the_decisive_samples_are_planned_by_pi_s_planner_by_default(case):
+    domain, _ = case
+    assert domain.vstar.planner is domain.planner
+
+
+def test_the_decisive_samples_are_planned_by_their_own_planner_when_set():
+    """``planning.decisive``: the ``plan_samples`` stage plans with that budget from every
+    evaluation start (here 4 × 2 CMA-ES rollouts a problem), π keeps its own."""
+    decisive = {"iterations": 0, "cma_population": 4, "cma_iterations": 2}
+    domain = small_domain("lava_reacher", planning={**SMALL_PLANNING, "decisive": decisive})
+    assert domain.vstar.planner.config.budget == 8 and domain.planner.config.budget == 32 * 8
+    scene, sim = domain.scene, domain.scene.simulator
+    before = sim.steps_simulated
+    scene.simulate(scene.starts[:1], scene.initial_knots(scene.starts[:1]))
+    horizon = sim.steps_simulated - before
+    before = sim.steps_simulated
+    domain.vstar.plan_samples(domain.sample_prior(np.random.default_rng(14), 1))
+    assert sim.steps_simulated - before == len(scene.starts) * 8 * horizon
+
+
 @pytest.mark.parametrize("revisit_cosine", [0.98, 0.999])
 def test_a_direction_near_one_planned_reuses_its_plan(case, revisit_cosine):
     """``planning.revisit_cosine`` (shipped 0.98 on both scenes, stop 57): a (sample, start)

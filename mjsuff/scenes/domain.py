@@ -145,10 +145,11 @@ class SceneDomain(Domain):
         self.candidate_sets = CandidateSets(scene, self.library, expert, candidates, self._random_features)
         self._add_primitives(expert)
         self._random_mu = self._random_policy(expert, rng)
+        decisive = SamplingPlanner(scene, planning.decisive, self.library) if planning.decisive else None
         self.vstar = LibraryVStar(
             scene,
             self.library,
-            self.planner,
+            decisive or self.planner,
             self.refiner,
             planning,
             self.start_weights,

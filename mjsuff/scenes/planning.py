@@ -33,6 +33,11 @@ class PlanningSettings(BaseModel):
         description="V*: the share of samples with the largest nEVD whose V* is refined (the "
         "upper tail decides the bound)",
     )
+    decisive: PlannerConfig | None = Field(
+        None,
+        description="V*: the planner of the plan_samples stage (the samples that can move the "
+        "bound, each warm-started from the library); unset = π's",
+    )
     plan_samples: int = Field(
         0,
         ge=0,

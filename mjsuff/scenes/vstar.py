@@ -10,7 +10,7 @@ costs one matrix product. Given the robot's policy, effort goes where the bound 
    group's mean direction, for ``refine_rounds`` rounds;
 2. the ``plan_samples`` samples that can move the bound (the one at the order statistic the bound
    takes and those next below it; the ones above it stay above it however much they rise) are each
-   planned by themselves with π's budget from every evaluation start;
+   planned by themselves with π's budget (or ``planning.decisive``'s) from every evaluation start;
 3. for every tail sample, the local quadratic model proposes where its own optimum is, in
    ``polish_rounds`` rounds, and up to ``polish_extra_rounds`` more while a round still raises
    some tail sample's ``V*`` by more than ``polish_extra_gain`` of its ``V* − V_rand``.
@@ -40,7 +40,7 @@ class LibraryVStar:
     Args:
         scene: The instance.
         library: Its trajectory library (evaluation starts first, then the pool); searches add to it.
-        planner: π's planner (the ``plan_samples`` stage).
+        planner: The ``plan_samples`` stage's planner (π's, unless ``planning.decisive``).
         refiner: The short warm-started planner of the refinement rounds.
         planning: The budgets (``refine_rounds``, ``refine_groups``, ``tail_share``,
             ``plan_samples``, ``polish_rounds``, ``polish_extra_rounds``, ``polish_extra_gain``,
@@ -165,7 +165,7 @@ class LibraryVStar:
         self.plan_samples(weights[np.argsort(-nevd, kind="stable")[rank : rank + count]])
 
     def plan_samples(self, weights: np.ndarray) -> None:
-        """Plan each of ``weights`` from every evaluation start with π's budget, warm-started
+        """Plan each of ``weights`` from every evaluation start with the stage's planner, warm-started
         from the library, into the library; a (sample, start) within ``revisit_cosine`` of a
         direction already refined or planned there is skipped."""
         problems, directions = [], []
