@@ -19,7 +19,8 @@ loses more than that against the learner's own budget cannot be taken.
         [--set KEY=VALUE ...]
 
 Only problems at the planner's (π's) budget are replayed: the samples planned one by one, and
-π_MAP. The traces are recorded by wrapping the planner's best-so-far bookkeeping; nothing the
+π_MAP (with ``planning.decisive`` set, the samples' problems only where it has π's CMA-ES
+generations). The traces are recorded by wrapping the planner's best-so-far bookkeeping; nothing the
 planner does changes.
 """
 

@@ -68,11 +68,14 @@ def test_backend_choices_are_checked():
 class _FakeRay:
     """Ray's calls the backend makes, in this process: records each remote's CPUs and threads."""
 
-    def __init__(self):
-        self.reserved, self.threads = [], []
+    def __init__(self, cpus):
+        self.cpus, self.reserved, self.threads = cpus, [], []
 
     def is_initialized(self):
         return True
+
+    def cluster_resources(self):
+        return {"CPU": float(self.cpus)}
 
     def remote(self, num_cpus):
         self.reserved.append(num_cpus)
@@ -94,21 +97,26 @@ class _FakeRay:
 
 
 @pytest.mark.parametrize(
-    ("address", "num_cpus", "cpus_per_task", "replicates", "cpus"),
+    ("address", "instance_cpus", "cpus_per_task", "replicates", "cpus"),
     [
         (None, 2, None, 1, 2),  # one replicate on a local instance gets its CPUs (one before stop 61)
         (None, 2, None, 3, 1),
         (None, 8, None, 3, 2),
+        ("local", 4, None, 1, 4),
         (None, 8, 3, 1, 3),  # asked for: as asked
-        ("10.0.0.1:6379", None, None, 1, 1),  # a cluster's CPUs are not this machine's
+        ("10.0.0.1:6379", 8, None, 1, 1),  # a cluster's nodes may each have fewer
     ],
 )
-def test_ray_tasks_share_the_cpus_of_a_local_instance(address, num_cpus, cpus_per_task, replicates, cpus):
+def test_ray_tasks_share_the_cpus_of_a_local_instance(
+    address, instance_cpus, cpus_per_task, replicates, cpus
+):
+    """The CPUs are the running instance's (it may be one the caller started with fewer than
+    this machine has: a task asking for more would never be scheduled)."""
     pytest.importorskip("ray", reason="the ray extra is not installed")
     from mjsuff.experiment.ray_backend import RayBackend
 
-    backend = RayBackend(address, num_cpus=num_cpus, cpus_per_task=cpus_per_task)
-    backend.ray = _FakeRay()
+    backend = RayBackend(address, num_cpus=64, cpus_per_task=cpus_per_task)
+    backend.ray = _FakeRay(instance_cpus)
     scenario = small_scenario(replicates=replicates)
     tasks = [ReplicateTask((0, r), scenario, r) for r in range(replicates)]
     assert sorted(result for _, result in backend.run(tasks)) == list(range(replicates))

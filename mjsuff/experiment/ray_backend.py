@@ -35,8 +35,9 @@ class RayBackend(Backend):
             Ray instance with ``num_cpus`` CPUs (default: all cores).
         num_cpus: CPUs of the local instance (ignored with ``address``).
         cpus_per_task: CPUs each replicate reserves; MuJoCo rollouts use as many threads.
-            None: on a local instance its CPUs shared among the replicates (at least one each:
-            a single replicate gets them all); one on a cluster.
+            None: on a local instance (no address, or ``local``) the CPUs it has shared among
+            the replicates (at least one each: a single replicate gets them all); one on a
+            cluster.
     """
 
     name = "ray"
@@ -120,12 +121,14 @@ class RayBackend(Backend):
                 self.ray.cancel(ref, force=True)
 
     def task_cpus(self, tasks: int) -> int:
-        """CPUs (and rollout threads) each of ``tasks`` replicates reserves (``cpus_per_task``)."""
+        """CPUs (and rollout threads) each of ``tasks`` ≥ 1 replicates reserves
+        (``cpus_per_task``), once connected: a local instance's are the CPUs it has, which
+        may be one the caller started (a task asking for more would wait for ever)."""
         if self.cpus_per_task is not None:
             return self.cpus_per_task
-        if self.address:
+        if self.address not in (None, "", "local"):
             return 1
-        cpus = self.num_cpus or os.cpu_count() or 1
+        cpus = max(1, int(self.ray.cluster_resources().get("CPU", 1)))
         return max(1, cpus // min(cpus, tasks))
 
     def shutdown(self) -> None:

@@ -36,14 +36,15 @@ class PlanningSettings(BaseModel):
     decisive: PlannerConfig | None = Field(
         None,
         description="V*: the planner of the plan_samples stage (the samples that can move the "
-        "bound, each warm-started from the library); unset = π's",
+        "bound, each warm-started from the library); a whole planner: keys left out take "
+        "PlannerConfig's defaults, not π's; unset = π's planner",
     )
     plan_samples: int = Field(
         0,
         ge=0,
         description="V*: this many samples that can move the bound (from its order "
         "statistic down, after the groups' refinement) planned one "
-        "by one with π's budget from every evaluation start, warm-started "
+        "by one with π's budget (or decisive's) from every evaluation start, warm-started "
         "from the library; 0: none",
     )
     polish_rounds: int = Field(
