@@ -35,6 +35,7 @@ from mjsuff.experiment.scenario import load_scenario
 from mjsuff.posterior import sample_posterior
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+NUM_DEMOS = 10
 #: Seconds spent inside ``mujoco.rollout`` so far (every scene simulates through it).
 IN_MUJOCO = [0.0]
 _rollout = rollout.rollout
@@ -48,10 +49,9 @@ def _timed_rollout(*args, **kwargs):
         IN_MUJOCO[0] += time.perf_counter() - t0
 
 
-NUM_DEMOS = 10
-
-
-def check(domain, demos, scenario, rng) -> dict[str, float]:
+def check(domain, demos, scenario, rng) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """One check: each phase's seconds (and the bound, sampler steps, re-plan and polish counts),
+    and per simulating phase its (MuJoCo steps, seconds inside ``mujoco.rollout``)."""
     beta, suff = scenario.demos.beta, scenario.sufficiency
     t, steps = {}, {}
 

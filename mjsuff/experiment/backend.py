@@ -27,6 +27,14 @@ from mjsuff.experiment.scenario import Scenario
 #: Environment variable read by ``mjsuff.scenes.simulate.Simulator`` for its default thread count.
 SIM_THREADS_ENV = "MJSUFF_SIM_THREADS"
 
+
+def shared_threads(cores: int, replicates: int) -> int:
+    """Rollout threads of each of ``replicates`` ≥ 1 replicates running at once on ``cores``
+    cores: the cores shared among no more replicates than there are cores, at least one each
+    (a single replicate gets them all; the thread count never changes results)."""
+    return max(1, cores // min(cores, replicates))
+
+
 TaskProgress = Callable[["ReplicateTask", int, int], None]
 """Called as ``(task, step, max_demos)`` after each demonstration step of a task."""
 

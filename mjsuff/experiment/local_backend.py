@@ -25,6 +25,7 @@ from mjsuff.experiment.backend import (
     ReplicateTask,
     TaskProgress,
     execute,
+    shared_threads,
 )
 from mjsuff.experiment.deferred_signals import DeferredSignals
 
@@ -106,10 +107,6 @@ class LocalBackend(Backend):
         self.cores = cores
         self.workers = workers or cores
 
-    def rollout_threads(self, processes: int) -> int:
-        """MuJoCo rollout threads of each of ``processes`` workers: the cores shared among them."""
-        return max(1, self.cores // processes)
-
     def describe(self) -> str:
         return f"local, {self.workers} worker process(es)"
 
@@ -150,7 +147,7 @@ class LocalBackend(Backend):
             workers,
             mp_context=context,
             initializer=_worker_init,
-            initargs=(self.rollout_threads(workers),),
+            initargs=(shared_threads(self.cores, workers),),
         )
         try:
             if drainer is not None:

@@ -24,6 +24,7 @@ from mjsuff.experiment.backend import (
     ReplicateTask,
     TaskProgress,
     execute,
+    shared_threads,
 )
 
 
@@ -128,8 +129,7 @@ class RayBackend(Backend):
             return self.cpus_per_task
         if self.address not in (None, "", "local"):
             return 1
-        cpus = max(1, int(self.ray.cluster_resources().get("CPU", 1)))
-        return max(1, cpus // min(cpus, tasks))
+        return shared_threads(max(1, int(self.ray.cluster_resources().get("CPU", 1))), tasks)
 
     def shutdown(self) -> None:
         if self.ray.is_initialized():

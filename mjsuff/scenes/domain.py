@@ -145,11 +145,13 @@ class SceneDomain(Domain):
         self.candidate_sets = CandidateSets(scene, self.library, expert, candidates, self._random_features)
         self._add_primitives(expert)
         self._random_mu = self._random_policy(expert, rng)
-        decisive = SamplingPlanner(scene, planning.decisive, self.library) if planning.decisive else None
+        decisive = self.planner  # the plan_samples stage's planner: π's unless planning.decisive
+        if planning.decisive:
+            decisive = SamplingPlanner(scene, planning.decisive, self.library)
         self.vstar = LibraryVStar(
             scene,
             self.library,
-            decisive or self.planner,
+            decisive,
             self.refiner,
             planning,
             self.start_weights,
