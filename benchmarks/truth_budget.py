@@ -51,10 +51,10 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mjsuff.domain import TRUTH_SETTLED
-from mjsuff.experiment.backend import SIM_THREADS_ENV
 from mjsuff.experiment.replicate import run_replicate
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.scenes.truth import search_truth
+from mjsuff.threads import SIM_THREADS_ENV
 
 ROOT = Path(__file__).resolve().parent.parent
 

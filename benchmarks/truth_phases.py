@@ -34,9 +34,9 @@ from threadpoolctl import threadpool_limits
 import mjsuff.scenes.domain as scene_domain
 import mjsuff.scenes.truth as truth
 from mjsuff.domain import TRUTH_SETTLED
-from mjsuff.experiment.backend import SIM_THREADS_ENV
 from mjsuff.experiment.replicate import run_replicate
 from mjsuff.experiment.scenario import load_scenario
+from mjsuff.threads import SIM_THREADS_ENV
 
 ROOT = Path(__file__).resolve().parent.parent
 PHASES = ("cloud", "wide", "broad", "planner", "polish")

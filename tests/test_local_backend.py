@@ -14,6 +14,7 @@ import pytest
 
 from mjsuff.experiment.backend import ReplicateResult, ReplicateTask
 from mjsuff.experiment.local_backend import LocalBackend, _sigint_held
+from mjsuff.threads import SIM_THREADS_ENV
 from tests.conftest import small_scenario
 
 pytestmark = pytest.mark.usefixtures("usual_signal_handlers")
@@ -135,20 +136,28 @@ class _RecordingPool:
 
 
 @pytest.mark.parametrize(
-    ("cores", "workers", "replicates", "started", "threads"),
+    ("cores", "budget", "workers", "replicates", "started", "threads"),
     [
-        (2, None, 1, 1, 2),  # one replicate gets both cores (it got one before stop 61)
-        (2, None, 3, 2, 1),
-        (8, 2, 1, 1, 8),
-        (8, None, 3, 3, 2),
-        (8, 3, 5, 3, 2),
-        (1, 4, 4, 4, 1),
+        (2, None, None, 1, 1, 2),  # one replicate gets both cores (it got one before stop 61)
+        (2, None, None, 3, 2, 1),
+        (8, None, 2, 1, 1, 8),
+        (8, None, None, 3, 3, 2),
+        (8, None, 3, 5, 3, 2),
+        (1, None, 4, 4, 4, 1),
+        # A budget set in the environment (a user's cap, a test worker's share) is what is shared.
+        (2, "1", None, 1, 1, 1),
+        (8, "4", None, 8, 4, 1),
+        (8, "4", 2, 3, 2, 2),
     ],
 )
-def test_rollout_threads_share_the_cores_among_the_processes_started(
-    monkeypatch, cores, workers, replicates, started, threads
+def test_rollout_threads_share_the_budget_among_the_processes_started(
+    monkeypatch, cores, budget, workers, replicates, started, threads
 ):
-    monkeypatch.setattr("mjsuff.experiment.local_backend.os.cpu_count", lambda: cores)
+    monkeypatch.setattr("mjsuff.threads.os.cpu_count", lambda: cores)
+    if budget is None:
+        monkeypatch.delenv(SIM_THREADS_ENV, raising=False)
+    else:
+        monkeypatch.setenv(SIM_THREADS_ENV, budget)
     monkeypatch.setattr("mjsuff.experiment.local_backend.ProcessPoolExecutor", _RecordingPool)
     _POOLS_MADE.clear()
     scenario = small_scenario(replicates=replicates)

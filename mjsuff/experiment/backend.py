@@ -24,9 +24,6 @@ from mjsuff.errors import MjsuffError
 from mjsuff.experiment.replicate import DemoSource, StepCallback, run_replicate
 from mjsuff.experiment.scenario import Scenario
 
-#: Environment variable read by ``mjsuff.scenes.simulate.Simulator`` for its default thread count.
-SIM_THREADS_ENV = "MJSUFF_SIM_THREADS"
-
 
 def shared_threads(cores: int, replicates: int) -> int:
     """Rollout threads of each of ``replicates`` ≥ 1 replicates running at once on ``cores``

@@ -11,7 +11,6 @@
 from __future__ import annotations
 
 from mjsuff.experiment.backend import (
-    SIM_THREADS_ENV,
     Backend,
     BackendError,
     ClusterConnectionError,
@@ -24,7 +23,6 @@ from mjsuff.experiment.local_backend import LocalBackend
 from mjsuff.experiment.ray_backend import RayBackend
 
 __all__ = [
-    "SIM_THREADS_ENV",
     "Backend",
     "BackendError",
     "ClusterConnectionError",

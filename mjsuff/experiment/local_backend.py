@@ -18,7 +18,6 @@ from multiprocessing.managers import SyncManager
 from typing import Any
 
 from mjsuff.experiment.backend import (
-    SIM_THREADS_ENV,
     Backend,
     BackendError,
     ReplicateResult,
@@ -28,6 +27,7 @@ from mjsuff.experiment.backend import (
     shared_threads,
 )
 from mjsuff.experiment.deferred_signals import DeferredSignals
+from mjsuff.threads import SIM_THREADS_ENV, thread_budget
 
 _POLL_SECONDS = 0.1  # longest wait on the workers before a Ctrl-C is handled (s)
 
@@ -93,15 +93,17 @@ class LocalBackend(Backend):
     """A pool of local worker processes.
 
     Args:
-        workers: Most processes (default: all cores); a run starts no more than it has
-            replicates. MuJoCo rollouts in each get ``cores // processes started`` threads (at
-            least one): a single replicate gets every core.
+        workers: Most processes (default: one per core of the thread budget); a run starts
+            no more than it has replicates. The budget (``mjsuff.threads``: every core, or
+            ``$MJSUFF_SIM_THREADS``) is shared among the processes started: MuJoCo rollouts in
+            each get ``budget // processes started`` threads (at least one), so a single
+            replicate gets all of it.
     """
 
     name = "local"
 
     def __init__(self, workers: int | None = None) -> None:
-        cores = os.cpu_count() or 1
+        cores = thread_budget()
         if workers is not None and workers < 1:
             raise BackendError(f"--workers: expected a positive number, got {workers}")
         self.cores = cores

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from mjsuff.experiment.backend import (
-    SIM_THREADS_ENV,
     Backend,
     BackendError,
     ClusterConnectionError,
@@ -26,6 +25,7 @@ from mjsuff.experiment.backend import (
     execute,
     shared_threads,
 )
+from mjsuff.threads import SIM_THREADS_ENV, thread_budget
 
 
 class RayBackend(Backend):
@@ -33,7 +33,7 @@ class RayBackend(Backend):
 
     Args:
         address: A running cluster's address (``ray start --head`` prints it), or None for a local
-            Ray instance with ``num_cpus`` CPUs (default: all cores).
+            Ray instance with ``num_cpus`` CPUs (default: the thread budget, ``mjsuff.threads``).
         num_cpus: CPUs of the local instance (ignored with ``address``).
         cpus_per_task: CPUs each replicate reserves; MuJoCo rollouts use as many threads.
             None: on a local instance (no address, or ``local``) the CPUs it has shared among
@@ -80,7 +80,7 @@ class RayBackend(Backend):
         }
         if not self.address:
             with _sigterm_handler_kept():
-                self.ray.init(num_cpus=self.num_cpus or os.cpu_count() or 1, **options)
+                self.ray.init(num_cpus=self.num_cpus or thread_budget(), **options)
             return
         if self.address not in ("auto", "local"):
             host, port = _host_port(self.address)

@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from mjsuff.scenes.simulate import default_threads
+from mjsuff.threads import thread_budget
 
 #: Below this many (weight, candidate) products a batch is not worth a thread's hand-off.
 PARALLEL_PRODUCTS = 200_000
@@ -69,10 +69,10 @@ def demo_log_likelihoods(
 
 
 def _shared_pool() -> ThreadPoolExecutor | None:
-    """This process's threads for the likelihood (``default_threads()`` of them; none with one);
+    """This process's threads for the likelihood (``thread_budget()`` of them; none with one);
     made again in a forked child, which does not inherit the parent's threads."""
     global _pool
-    threads = default_threads()
+    threads = thread_budget()
     if threads < 2:
         return None
     if _pool is None or _pool[0] != os.getpid():

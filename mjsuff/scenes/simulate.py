@@ -9,12 +9,13 @@ rollout (``mujoco.rollout`` reuses one ``mjData`` per thread and clears them bet
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from mujoco import rollout
+
+from mjsuff.threads import thread_budget
 
 FULL_STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 #: Any |qpos| or |qvel| above this is treated as a divergence (metres, radians, per second).
@@ -40,13 +41,6 @@ class Rollouts:
     valid: np.ndarray
 
 
-def default_threads() -> int:
-    """Rollout threads: ``$MJSUFF_SIM_THREADS`` (set by parallel backends to share the cores
-    among replicates), else all cores. Results do not depend on it."""
-    value = os.environ.get("MJSUFF_SIM_THREADS", "")
-    return int(value) if value.isdigit() and int(value) > 0 else (os.cpu_count() or 1)
-
-
 class Simulator:
     """Runs batches of open-loop rollouts of one model from given start states.
 
@@ -58,7 +52,7 @@ class Simulator:
 
     def __init__(self, model: mujoco.MjModel, threads: int | None = None) -> None:
         self.model = model
-        self.threads = threads or default_threads()
+        self.threads = threads or thread_budget()
         self._datas = [mujoco.MjData(model) for _ in range(self.threads)]
         self.state_size = mujoco.mj_stateSize(model, FULL_STATE)
         #: Steps simulated and rollouts flagged as diverged so far (for run reports).
