@@ -282,6 +282,33 @@ def test_the_decisive_samples_are_planned_by_their_own_planner_when_set():
     assert sim.steps_simulated - before == len(scene.starts) * 8 * horizon
 
 
+def test_the_decisive_samples_get_a_second_search_from_the_same_warm_start_when_set(monkeypatch):
+    """``planning.decisive_second``: each ``plan_samples`` problem is searched again with that
+    budget (here 4 × 1 CMA-ES rollouts after the first search's 4 × 2), from the warm start the first search
+    had, and both searches' rollouts are simulated; unset, there is no second search."""
+    decisive = {"iterations": 0, "cma_population": 4, "cma_iterations": 2}
+    second = {"iterations": 0, "cma_population": 4, "cma_iterations": 1}
+    planning = {**SMALL_PLANNING, "decisive": decisive, "decisive_second": second}
+    domain = small_domain("lava_reacher", planning=planning)
+    assert domain.vstar.second is not None and domain.vstar.second.config.budget == 4
+    assert small_domain("lava_reacher").vstar.second is None
+    scene, sim = domain.scene, domain.scene.simulator
+    before = sim.steps_simulated
+    scene.simulate(scene.starts[:1], scene.initial_knots(scene.starts[:1]))
+    horizon = sim.steps_simulated - before
+    warm_starts = []
+    for planner in (domain.vstar.planner, domain.vstar.second):
+        plan = planner.plan
+        monkeypatch.setattr(
+            planner, "plan", lambda *a, plan=plan, **k: warm_starts.append(k["warm_knots"]) or plan(*a, **k)
+        )
+    before = sim.steps_simulated
+    domain.vstar.plan_samples(domain.sample_prior(np.random.default_rng(14), 1))
+    assert sim.steps_simulated - before == len(scene.starts) * (8 + 4) * horizon
+    assert len(warm_starts) == 2
+    np.testing.assert_array_equal(warm_starts[0], warm_starts[1])
+
+
 @pytest.mark.parametrize("revisit_cosine", [0.98, 0.999])
 def test_a_direction_near_one_planned_reuses_its_plan(case, revisit_cosine):
     """``planning.revisit_cosine`` (shipped 0.98 on both scenes, stop 57): a (sample, start)

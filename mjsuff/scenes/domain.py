@@ -148,6 +148,7 @@ class SceneDomain(Domain):
         decisive = self.planner  # the plan_samples stage's planner: π's unless planning.decisive
         if planning.decisive:
             decisive = SamplingPlanner(scene, planning.decisive, self.library)
+        second = planning.decisive_second
         self.vstar = LibraryVStar(
             scene,
             self.library,
@@ -157,6 +158,7 @@ class SceneDomain(Domain):
             self.start_weights,
             self._random_mu,
             rng,
+            SamplingPlanner(scene, second, self.library) if second else None,
         )
         self._add_seed_plans(rng)
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())

@@ -39,6 +39,12 @@ class PlanningSettings(BaseModel):
         "bound, each warm-started from the library); a whole planner: keys left out take "
         "PlannerConfig's defaults, not π's; unset = π's planner",
     )
+    decisive_second: PlannerConfig | None = Field(
+        None,
+        description="V*: a second search of each plan_samples (sample, start) with this planner, "
+        "from the same warm start as the first (for another basin; both join the library); a "
+        "whole planner as decisive is; unset = none",
+    )
     plan_samples: int = Field(
         0,
         ge=0,

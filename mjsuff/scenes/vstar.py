@@ -48,6 +48,8 @@ class LibraryVStar:
         start_weights: The evaluation starts' weights ``(S,)`` in a policy's value.
         random_mu: The random policy's feature expectations ``(S, k)`` (nEVD's denominator).
         rng: Randomness of the searches.
+        second: The planner of a second search of each ``plan_samples`` problem from the same
+            warm start (``planning.decisive_second``); None: none.
     """
 
     def __init__(
@@ -60,8 +62,10 @@ class LibraryVStar:
         start_weights: np.ndarray,
         random_mu: np.ndarray,
         rng: np.random.Generator,
+        second: SamplingPlanner | None = None,
     ) -> None:
         self.scene, self.library, self.planner, self.refiner = scene, library, planner, refiner
+        self.second = second
         self.planning, self.start_weights, self.random_mu, self.rng = planning, start_weights, random_mu, rng
         #: Per library start, the directions ``(m, k)`` refined or planned from it so far.
         self.refined = [np.empty((0, scene.num_features)) for _ in range(len(scene.all_starts))]
@@ -165,9 +169,10 @@ class LibraryVStar:
         self.plan_samples(weights[np.argsort(-nevd, kind="stable")[rank : rank + count]])
 
     def plan_samples(self, weights: np.ndarray) -> None:
-        """Plan each of ``weights`` from every evaluation start with the stage's planner, warm-started
-        from the library, into the library; a (sample, start) within ``revisit_cosine`` of a
-        direction already refined or planned there is skipped."""
+        """Plan each of ``weights`` from every evaluation start with the stage's planner (and the
+        second search's, when set), warm-started from the library, into the library; a (sample,
+        start) within ``revisit_cosine`` of a direction already refined or planned there is
+        skipped."""
         problems, directions = [], []
         for start in range(len(self.scene.starts)):
             for direction in normalize(weights):
@@ -178,6 +183,8 @@ class LibraryVStar:
             starts, directions_ = np.array(problems), np.array(directions)
             warm = library_warm(self.library, starts, directions_)
             self.planner.plan(starts, directions_, self.rng, warm_knots=warm)
+            if self.second is not None:
+                self.second.plan(starts, directions_, self.rng, warm_knots=warm)
 
     def claim(self, start: int, direction: np.ndarray) -> bool:
         """Record ``direction`` as refined or planned from ``start``; False, recording nothing,
