@@ -8,15 +8,14 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from mjsuff.domains import REGISTRY, get_domain
+from mjsuff.domains import get_domain
 from mjsuff.scenes.domain import SceneDomain
 from mjsuff.scenes.planner import SamplingPlanner
 from mjsuff.scenes.planner_config import PlannerConfig
 from mjsuff.sphere import random_unit_vectors
 
-SCENES = {n: (spec.scene, spec.params) for n, spec in REGISTRY.items() if spec.scene is not None}
 STARTS = 4
-LIMIT = {"lava_reacher": 0.01, "lander": 0.025}
+LIMIT = {"lava_reacher": 0.01}
 
 
 def scene_domain(name: str) -> SceneDomain:
@@ -28,8 +27,12 @@ def scaled_gap(better, value, v_rand):
     return (best - value) / (best - v_rand)
 
 
-@pytest.mark.parametrize("name", sorted(SCENES))
+@pytest.mark.parametrize("name", ["lava_reacher"])
 def test_planner_is_near_ten_times_its_budget(name):
+    """π against a 10×-budget plan from the same warm start. The lander's case (2 rewards × 4
+    starts, limit 2.5%; measured mean 1.8%, max 3.6%) cost the suite 113–157 s, the most of any
+    test: it is measured by ``python benchmarks/scenes.py --scenes lander --starts 4 --rewards 50
+    --subset 4 --quality 2`` (the same comparison, printed) instead."""
     domain = scene_domain(name)
     scene, starts = domain.scene, np.arange(STARTS)
     weights = -np.abs(random_unit_vectors(np.random.default_rng(9), 2, scene.num_features))
