@@ -29,6 +29,7 @@ from mujoco import rollout
 from threadpoolctl import threadpool_limits
 
 from mjsuff.bounds import normalized_evd, policy_values, upper_var_bound
+from mjsuff.errors import MjsuffError
 from mjsuff.experiment.replicate import make_instance, nevd_bound_index
 from mjsuff.experiment.run_summary import machine_info
 from mjsuff.experiment.scenario import load_scenario
@@ -100,7 +101,9 @@ def check(domain, demos, scenario, rng) -> tuple[dict[str, float], dict[str, np.
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", nargs="+", default=["lava_reacher", "lander"])
+    parser.add_argument(
+        "--scenes", nargs="+", choices=["lava_reacher", "lander"], default=["lava_reacher", "lander"]
+    )
     parser.add_argument(
         "--starts", type=int, default=None, help="evaluation starts (default: the scenario file's)"
     )
@@ -118,11 +121,14 @@ def main() -> None:
         f"machine: {machine['cpu']}, {os.cpu_count()} cores; "
         f"BLAS {machine['blas']}; MuJoCo {machine['mujoco']}"
     )
+    scenarios = {}
     for name in args.scenes:
-        scenario = load_scenario(
-            SCENARIOS / f"{name}.toml",
-            [*([f"domain.params.eval_starts={args.starts}"] if args.starts is not None else []), *args.set],
-        )
+        sets = [*([f"domain.params.eval_starts={args.starts}"] if args.starts is not None else []), *args.set]
+        try:  # every scenario checked before any work: a bad value is the scenario's one line
+            scenarios[name] = load_scenario(SCENARIOS / f"{name}.toml", sets)
+        except MjsuffError as err:
+            parser.error(str(err))
+    for name, scenario in scenarios.items():
         with threadpool_limits(limits=1):
             t0 = time.perf_counter()
             domain = make_instance(scenario, 0)
