@@ -32,7 +32,8 @@ def test_planner_is_near_ten_times_its_budget(name):
     """π against a 10×-budget plan from the same warm start. The lander's case (2 rewards × 4
     starts, limit 2.5%; measured mean 1.8%, max 3.6%) cost the suite 113–157 s, the most of any
     test: it is measured by ``python benchmarks/scenes.py --scenes lander --starts 4 --rewards 50
-    --subset 4 --quality 2`` (the same comparison, printed) instead."""
+    --subset 4 --quality 2`` (the same comparison on the benchmark's instance, printed) instead:
+    stop 62, mean 0.77%, max 1.72%."""
     domain = scene_domain(name)
     scene, starts = domain.scene, np.arange(STARTS)
     weights = -np.abs(random_unit_vectors(np.random.default_rng(9), 2, scene.num_features))
