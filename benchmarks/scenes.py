@@ -77,6 +77,11 @@ def planner_steps_per_second(domain: SceneDomain, w: np.ndarray) -> tuple[float,
     return (simulator.steps_simulated - before) / plan_time, plan_time
 
 
+#: The planner-vs-10× mean gap each scene's planner is held to (tests/test_planner.py's limits;
+#: the lander's case is measured here only since stop 62, as the suite's slowest test).
+QUALITY_LIMIT = {"lava_reacher": 0.01, "lander": 0.025}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rewards", type=int, default=500)
@@ -151,9 +156,11 @@ def main() -> None:
             top = np.maximum(reference, value)
             quality.append((top - value) / (top - v_rand))
         quality = np.concatenate(quality)
+        limit = QUALITY_LIMIT[name]
         print(
             f"  planner vs 10x budget, {args.quality} rewards x {args.starts} starts: gap mean "
-            f"{quality.mean():.4f}, median {np.median(quality):.4f}, max {quality.max():.4f}"
+            f"{quality.mean():.4f}, median {np.median(quality):.4f}, max {quality.max():.4f} "
+            f"(mean limit {limit}: {'met' if quality.mean() <= limit else 'MISSED'})"
         )
 
 

@@ -51,10 +51,11 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from mjsuff.domain import TRUTH_SETTLED
+from mjsuff.experiment.backend import shared_threads
 from mjsuff.experiment.replicate import run_replicate
 from mjsuff.experiment.scenario import load_scenario
 from mjsuff.scenes.truth import search_truth
-from mjsuff.threads import SIM_THREADS_ENV
+from mjsuff.threads import SIM_THREADS_ENV, thread_budget
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -206,7 +207,7 @@ def main() -> None:
         parser.error("nothing to compute: give --variants, --re-search or both")
     t0 = time.perf_counter()
     jobs = [(args.scene, args.seed, r, variants, args.set, args.re_search) for r in args.replicates]
-    threads = str(max(1, (os.cpu_count() or 1) // args.workers))  # MuJoCo's rollout threads, shared
+    threads = str(shared_threads(thread_budget(), args.workers))  # MuJoCo's rollout threads, shared
     with ProcessPoolExecutor(
         args.workers, initializer=os.environ.__setitem__, initargs=(SIM_THREADS_ENV, threads)
     ) as pool:

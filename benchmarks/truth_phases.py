@@ -34,9 +34,10 @@ from threadpoolctl import threadpool_limits
 import mjsuff.scenes.domain as scene_domain
 import mjsuff.scenes.truth as truth
 from mjsuff.domain import TRUTH_SETTLED
+from mjsuff.experiment.backend import shared_threads
 from mjsuff.experiment.replicate import run_replicate
 from mjsuff.experiment.scenario import load_scenario
-from mjsuff.threads import SIM_THREADS_ENV
+from mjsuff.threads import SIM_THREADS_ENV, thread_budget
 
 ROOT = Path(__file__).resolve().parent.parent
 PHASES = ("cloud", "wide", "broad", "planner", "polish")
@@ -140,7 +141,7 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
     t0 = time.perf_counter()
-    threads = str(max(1, (os.cpu_count() or 1) // args.workers))  # MuJoCo's rollout threads, shared
+    threads = str(shared_threads(thread_budget(), args.workers))  # MuJoCo's rollout threads, shared
     jobs = [(args.scene, args.seed, r, args.set) for r in args.replicates]
     with ProcessPoolExecutor(
         args.workers, initializer=os.environ.__setitem__, initargs=(SIM_THREADS_ENV, threads)

@@ -18,5 +18,7 @@ SIM_THREADS_ENV = "MJSUFF_SIM_THREADS"
 def thread_budget() -> int:
     """Cores this process may use: ``$MJSUFF_SIM_THREADS`` if set to a positive integer, else
     ``os.cpu_count()`` (at least 1)."""
-    value = os.environ.get(SIM_THREADS_ENV, "")
-    return int(value) if value.isdigit() and int(value) > 0 else (os.cpu_count() or 1)
+    value = os.environ.get(SIM_THREADS_ENV, "").strip()
+    if value.isascii() and value.isdigit() and int(value) > 0:
+        return int(value)
+    return os.cpu_count() or 1

@@ -9,17 +9,18 @@ from typing import Any
 import pytest
 
 from mjsuff.experiment.scenario import Scenario, scenario_from_dict
-from mjsuff.threads import SIM_THREADS_ENV
+from mjsuff.threads import SIM_THREADS_ENV, thread_budget
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Under xdist, each worker's thread budget (``mjsuff.threads``) is its share of the cores,
-    so the workers' MuJoCo rollouts do not oversubscribe them (results do not depend on it; a
-    budget set before the run is kept). Two workers each running two rollout threads on two
-    cores took ~11% longer on the lander's truth searches than one thread each."""
+    """Under xdist, each worker's thread budget (``mjsuff.threads``) is its share of the run's
+    budget (the cores, or a ``$MJSUFF_SIM_THREADS`` set before the run), so the workers' MuJoCo
+    rollouts do not oversubscribe them (results do not depend on it). Two workers each running
+    two rollout threads on two cores took ~11% longer on the lander's truth searches than one
+    thread each (stop 62)."""
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0)
     if workers > 1:
-        os.environ.setdefault(SIM_THREADS_ENV, str(max(1, (os.cpu_count() or 1) // workers)))
+        os.environ[SIM_THREADS_ENV] = str(max(1, thread_budget() // workers))
 
 
 def small_scenario(**overrides: Any) -> Scenario:

@@ -300,7 +300,9 @@ def test_the_decisive_samples_get_a_second_search_from_the_same_warm_start_when_
     for planner in (domain.vstar.planner, domain.vstar.second):
         plan = planner.plan
         monkeypatch.setattr(
-            planner, "plan", lambda *a, plan=plan, **k: warm_starts.append(k["warm_knots"]) or plan(*a, **k)
+            planner,
+            "plan",
+            lambda *a, plan=plan, **k: warm_starts.append(k["warm_knots"].copy()) or plan(*a, **k),
         )
     before = sim.steps_simulated
     domain.vstar.plan_samples(domain.sample_prior(np.random.default_rng(14), 1))

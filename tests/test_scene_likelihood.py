@@ -6,6 +6,7 @@ from scipy.special import logsumexp
 
 from mjsuff.scenes import likelihood
 from mjsuff.scenes.likelihood import demo_log_likelihoods, row_log_sum_exp
+from mjsuff.threads import SIM_THREADS_ENV
 
 
 def test_row_log_sum_exp_is_scipys_with_ties_and_wide_rows():
@@ -22,7 +23,7 @@ def test_demos_shared_among_threads_give_the_same_bits_as_one_by_one(threads, mo
     """The sampler's batches (4,096 rows, ~10 demos of ~150 candidates) go to threads; every
     column must be what the demo alone gives, bit for bit (a run's results must not depend on
     the machine's cores), and the Boltzmann formula written out."""
-    monkeypatch.setenv("MJSUFF_SIM_THREADS", threads)
+    monkeypatch.setenv(SIM_THREADS_ENV, threads)
     rng = np.random.default_rng(1)
     weights = rng.normal(size=(4096, 5))
     sets = [rng.normal(size=(int(rng.integers(20, 200)), 5)) for _ in range(10)]

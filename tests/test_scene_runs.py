@@ -118,7 +118,7 @@ def test_same_seed_same_learner_and_the_truths_searches_only_raise(tmp_path, tin
     assert (steps["truth_raise"] >= again["truth_raise"]).all()
     assert (steps["truth_raised_starts"] >= again["truth_raised_starts"]).all()
     assert (steps["simulated_steps"] >= again["simulated_steps"]).all()
-    assert (steps["truth_passes"] >= 1).all()
+    assert steps["truth_passes"].between(1, 2).all()  # TINY allows 2
 
 
 def test_saved_demo_set_reproduces_the_live_run(tmp_path, monkeypatch, tiny_run):

@@ -6,7 +6,8 @@ from mjsuff.threads import SIM_THREADS_ENV, thread_budget
 
 
 @pytest.mark.parametrize(
-    ("value", "budget"), [("3", 3), ("1", 1), (None, 6), ("", 6), ("0", 6), ("-2", 6), ("x", 6)]
+    ("value", "budget"),
+    [("3", 3), ("1", 1), (None, 6), ("", 6), ("0", 6), ("-2", 6), ("x", 6), ("²", 6), (" 2 ", 2)],
 )
 def test_budget_is_the_variable_when_positive_else_the_cores(monkeypatch, value, budget):
     monkeypatch.setattr("mjsuff.threads.os.cpu_count", lambda: 6)

@@ -96,7 +96,8 @@ def add_parser(commands: Any) -> None:
     run.add_argument(
         "--workers",
         type=int,
-        help="local: worker processes (default: all cores; 1 = serial); ray: CPUs of the local Ray instance",
+        help="local: worker processes (default: the thread budget, $MJSUFF_SIM_THREADS or all cores; "
+        "1 = serial); ray: CPUs of the local Ray instance",
     )
     run.add_argument(
         "--address", help="ray: address of a running cluster (default: start a local Ray instance)"

@@ -158,7 +158,7 @@ class SceneDomain(Domain):
             self.start_weights,
             self._random_mu,
             rng,
-            SamplingPlanner(scene, second, self.library) if second else None,
+            SamplingPlanner(scene, second, self.library) if second is not None else None,
         )
         self._add_seed_plans(rng)
         _, self._baseline_mu = scene.simulate(scene.starts, scene.baseline_knots())

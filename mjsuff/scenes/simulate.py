@@ -47,7 +47,7 @@ class Simulator:
     Args:
         model: The compiled model (instances may differ only in positions/sizes of geoms and
             sites, which the same simulator can take by being handed the new model).
-        threads: Worker threads (default: all cores).
+        threads: Worker threads (default: the thread budget, ``mjsuff.threads``).
     """
 
     def __init__(self, model: mujoco.MjModel, threads: int | None = None) -> None:

@@ -10,7 +10,8 @@ costs one matrix product. Given the robot's policy, effort goes where the bound 
    group's mean direction, for ``refine_rounds`` rounds;
 2. the ``plan_samples`` samples that can move the bound (the one at the order statistic the bound
    takes and those next below it; the ones above it stay above it however much they rise) are each
-   planned by themselves with π's budget (or ``planning.decisive``'s) from every evaluation start;
+   planned by themselves with π's budget (or ``planning.decisive``'s) from every evaluation start,
+   and a second time from the same warm start when ``planning.decisive_second`` is set;
 3. for every tail sample, the local quadratic model proposes where its own optimum is, in
    ``polish_rounds`` rounds, and up to ``polish_extra_rounds`` more while a round still raises
    some tail sample's ``V*`` by more than ``polish_extra_gain`` of its ``V* − V_rand``.
