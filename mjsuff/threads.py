@@ -3,8 +3,7 @@
 ``$MJSUFF_SIM_THREADS`` when it is a positive integer, else every core. A parallel backend
 shares its process's budget among the replicates it runs at once and sets each worker's
 variable to its share (``mjsuff.experiment.backend.shared_threads``); a user may set it to cap
-mjsuff, and the test suite sets it to each xdist worker's share of the cores. The budget never
-changes results, only how fast they come.
+mjsuff. The budget never changes results, only how fast they come.
 """
 
 from __future__ import annotations

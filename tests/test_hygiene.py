@@ -32,3 +32,12 @@ def test_mypy_finds_no_error(tmp_path: Path) -> None:
         check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_suites_longest_first_list_names_its_modules() -> None:
+    """``tests/conftest.py`` schedules these modules first (the suite's balance on two workers);
+    a renamed or removed module would silently fall back to collection order."""
+    from tests.conftest import LONGEST_FIRST
+
+    here = Path(__file__).parent
+    assert [name for name in LONGEST_FIRST if not (here / name).is_file()] == []
