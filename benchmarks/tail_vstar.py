@@ -6,6 +6,7 @@ each sample's ``V*_i − V_rand``. Target (issue #17): mean ≤ 1%, max ≤ 3%.
 
     python benchmarks/tail_vstar.py [--scenes lava_reacher lander] [--pairs 16] [--instances 1]
         [--first-instance 0] [--demos 1] [--set KEY=VALUE] [--own-budgets 16x24 24x48] [--bound-cost K]
+        [--show-worst N]
 
 
 The bound is the α-VaR of nEVD over posterior samples; an underestimated ``V*_i`` lowers that
@@ -55,6 +56,7 @@ def measure(
     budgets: tuple[tuple[int, int], ...] = (),
     bound_cost: int = 0,
     num_demos: int = 1,
+    show_worst: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Gaps of ``pairs`` random (sample, evaluation start) pairs of the top 10% and of as many
     of the decisive samples (module docs). For each CMA-ES ``(population, generations)`` in
@@ -96,11 +98,10 @@ def measure(
     samples = np.concatenate([group[c // len(sw)] for group, c in zip((tail, decisive), chosen, strict=True)])
     starts = np.concatenate([c % len(sw) for c in chosen])
     warm = library_best_knots(domain, w, samples, starts)
-    reference = (
-        SamplingPlanner(domain.scene, domain.planner.config.stronger(10))
-        .plan(starts, w[samples], np.random.default_rng(2), warm_knots=warm)
-        .values
+    plans = SamplingPlanner(domain.scene, domain.planner.config.stronger(10)).plan(
+        starts, w[samples], np.random.default_rng(2), warm_knots=warm
     )
+    reference = plans.values
     learner = v_star[samples, starts]
     scale = np.maximum(reference, learner) - np.einsum("nk,nk->n", w[samples], mu_rand[starts])
     gap = np.maximum(reference - learner, 0.0) / scale
@@ -129,6 +130,8 @@ def measure(
     for which, label in enumerate(("top 10%", "decisive")):
         g = gap[which * pairs : (which + 1) * pairs]
         print(f"  instance {instance}, {label}: mean {g.mean():.2%}, max {g.max():.2%} over {pairs} pairs")
+    if show_worst:
+        print_worst(domain, w, samples, starts, gap, plans.knots, pairs, show_worst)
     if bound_cost:
         print_bound_cost(domain, post, nevd, v_star, order[rank:], bound_cost, mu_robot, mu_rand, suff)
     # A negative difference (the learner's library beating the reference) counts as 0.
@@ -143,6 +146,22 @@ def library_best_knots(domain, w: np.ndarray, samples: np.ndarray, starts: np.nd
             for i, s in zip(samples, starts, strict=True)
         ]
     )
+
+
+def print_worst(domain, w, samples, starts, gap, knots, pairs: int, count: int) -> None:
+    """For the ``count`` largest gaps: the sample's weights, the features of the learner's library
+    best and of the 10× plan from the pair's start (which features the better trajectory trades)."""
+    names = " ".join(domain.scene.feature_names)
+    print(f"  the {count} largest gaps, features ({names}):")
+    for j in np.argsort(-gap, kind="stable")[:count]:
+        i, s = int(samples[j]), int(starts[j])
+        features = domain.library.arrays(s)[0][domain.library.best(s, w[i][None])[1][0]]
+        _, planned = domain.scene.simulate(domain.scene.starts[[s]], knots[j][None])
+        print(
+            f"    {'top 10%' if j < pairs else 'decisive'} pair, start {s}, gap {gap[j]:.2%}: "
+            f"w {np.round(w[i], 3)}\n      learner's best {np.round(features, 3)}"
+            f"\n      10x plan       {np.round(planned[0], 3)}"
+        )
 
 
 def print_bound_cost(domain, post, nevd, v_star, down, count, mu_robot, mu_rand, suff) -> None:
@@ -242,12 +261,19 @@ def main() -> None:
         help="also plan the K samples from the bound's order statistic down from every start "
         "with 10x the budget and print the bound before and after (module docs)",
     )
+    parser.add_argument(
+        "--show-worst",
+        type=sample_count,
+        default=0,
+        metavar="N",
+        help="also print, for the N largest gaps, the features of the learner's best and the 10x plan",
+    )
     args = parser.parse_args()
     budgets = tuple(args.own_budgets)
     for name in args.scenes:
         t = time.perf_counter()
         gaps = [
-            measure(name, args.pairs, args.set, i, budgets, args.bound_cost, args.demos)
+            measure(name, args.pairs, args.set, i, budgets, args.bound_cost, args.demos, args.show_worst)
             for i in range(args.first_instance, args.first_instance + args.instances)
         ]
         for which, label in enumerate(("top 10%", "decisive")):
