@@ -131,7 +131,7 @@ def measure(
         g = gap[which * pairs : (which + 1) * pairs]
         print(f"  instance {instance}, {label}: mean {g.mean():.2%}, max {g.max():.2%} over {pairs} pairs")
     if show_worst:
-        print_worst(domain, w, samples, starts, gap, plans.knots, pairs, show_worst)
+        print_worst(domain, w, samples, starts, gap, plans.knots, pairs, show_worst, order, rank)
     if bound_cost:
         print_bound_cost(domain, post, nevd, v_star, order[rank:], bound_cost, mu_robot, mu_rand, suff)
     # A negative difference (the learner's library beating the reference) counts as 0.
@@ -148,18 +148,25 @@ def library_best_knots(domain, w: np.ndarray, samples: np.ndarray, starts: np.nd
     )
 
 
-def print_worst(domain, w, samples, starts, gap, knots, pairs: int, count: int) -> None:
-    """For the ``count`` largest gaps: the sample's weights, the features of the learner's library
-    best and of the 10× plan from the pair's start (which features the better trajectory trades)."""
+def print_worst(domain, w, samples, starts, gap, knots, pairs: int, count: int, order, rank: int) -> None:
+    """For the ``count`` largest gaps: the sample's weights, its place in the nEVD order (the
+    bound's order statistic and the ``plan_samples`` below it are planned one by one), the nearest
+    direction planned or refined from the pair's start, and the features of the learner's library
+    best and of the 10× plan from that start (which features the better trajectory trades)."""
     names = " ".join(domain.scene.feature_names)
     print(f"  the {count} largest gaps, features ({names}):")
     for j in np.argsort(-gap, kind="stable")[:count]:
         i, s = int(samples[j]), int(starts[j])
         features = domain.library.arrays(s)[0][domain.library.best(s, w[i][None])[1][0]]
         _, planned = domain.scene.simulate(domain.scene.starts[[s]], knots[j][None])
+        place = int(np.flatnonzero(order == i)[0]) + 1
+        refined = domain.vstar.refined[s]
+        near = f"{(refined @ w[i]).max():.3f}" if len(refined) else "none"
         print(
             f"    {'top 10%' if j < pairs else 'decisive'} pair, start {s}, gap {gap[j]:.2%}: "
-            f"w {np.round(w[i], 3)}\n      learner's best {np.round(features, 3)}"
+            f"w {np.round(w[i], 3)}\n      the {place}th largest nEVD (the bound the {rank + 1}th); "
+            f"nearest direction planned or refined from the start: cosine {near}"
+            f"\n      learner's best {np.round(features, 3)}"
             f"\n      10x plan       {np.round(planned[0], 3)}"
         )
 

@@ -13,6 +13,7 @@ import pytest
 
 from mjsuff.domain import TRUTH_SETTLED, Demo
 from mjsuff.domains import REGISTRY, get_domain
+from mjsuff.experiment.scenario import ScenarioError, load_scenario
 from mjsuff.posterior import SamplerConfig, grid_posterior, sample_posterior
 from mjsuff.scenes.truth import TRUTH_CLOUD, search_truth
 from mjsuff.sphere import random_unit_vectors
@@ -309,6 +310,47 @@ def test_the_decisive_samples_get_a_second_search_from_the_same_warm_start_when_
     assert sim.steps_simulated - before == len(scene.starts) * (8 + 4) * horizon
     assert len(warm_starts) == 2
     np.testing.assert_array_equal(warm_starts[0], warm_starts[1])
+
+
+def test_seed_plans_add_a_reward_ignoring_each_named_feature_when_set(monkeypatch):
+    """``planning.seed_zeroed``: beside the ``seed_directions`` prior draws (the same draws as
+    without it), each start plans one direction per named feature, every weight equal but that
+    feature's, zeroed, and its plan enters the library (the library's best under that reward is
+    the plan's value or better)."""
+    from mjsuff.scenes import domain as domain_module
+
+    calls = []
+    plan = domain_module.SamplingPlanner.plan
+
+    def recording(self, problems, weights, rng, **kwargs):
+        result = plan(self, problems, weights, rng, **kwargs)
+        calls.append((np.array(problems), np.array(weights), result))
+        return result
+
+    monkeypatch.setattr(domain_module.SamplingPlanner, "plan", recording)
+    small_domain("lava_reacher")
+    (_, plain_weights, _), *_ = calls  # the seed plans: the only plans an instance makes up front
+    calls.clear()
+    planning = {**SMALL_PLANNING, "seed_zeroed": ["lava", "motion"]}
+    domain = small_domain("lava_reacher", planning=planning)
+    (problems, weights, seeds), *_ = calls
+    count = len(domain.scene.all_starts)
+    assert weights.shape == (count * 4, domain.num_features)
+    directions = weights.reshape(count, 4, -1)[0]
+    np.testing.assert_array_equal(directions[:2], plain_weights.reshape(count, 2, -1)[0])
+    lava, motion = (domain.scene.feature_names.index(name) for name in ("lava", "motion"))
+    for row, feature in ((2, lava), (3, motion)):
+        expected = np.full(4, -1 / np.sqrt(3))
+        expected[feature] = 0.0
+        np.testing.assert_allclose(directions[row], expected)
+    for j in np.flatnonzero(weights[:, lava] == 0.0):
+        best = domain.library.best_value(int(problems[j]), weights[j : j + 1])[0]
+        assert best >= seeds.values[j] - 1e-9
+
+
+def test_seed_zeroed_names_must_be_the_scenes_features():
+    with pytest.raises(ScenarioError, match=r"planning.seed_zeroed: 'lava' is not a feature.*habitat"):
+        load_scenario("lander", ['domain.params.planning.seed_zeroed=["habitat", "lava"]'])
 
 
 @pytest.mark.parametrize("revisit_cosine", [0.98, 0.999])

@@ -124,6 +124,12 @@ class SceneDomain(Domain):
             raise ValueError(
                 "planning.seed_directions: the random policy plans prior draws; at least 1 is needed"
             )
+        unknown = [name for name in planning.seed_zeroed if name not in scene.feature_names]
+        if unknown:
+            raise ValueError(
+                f"planning.seed_zeroed: {', '.join(map(repr, unknown))} is not a feature of this "
+                f"scene (features: {', '.join(scene.feature_names)})"
+            )
         self.scene = scene
         self.expert = expert
         self.rng = rng
@@ -228,9 +234,17 @@ class SceneDomain(Domain):
 
     def _add_seed_plans(self, rng: np.random.Generator) -> None:
         """Prior draws planned from every start, warm-started from the library, so that it holds
-        each mode's optimum before the first demo."""
+        each mode's optimum before the first demo; with ``planning.seed_zeroed``, one more
+        direction per named feature: the orthant's centre (every weight equal) with that one's
+        zeroed, a reward that trades every other feature evenly and ignores it."""
         scene, count = self.scene, len(self.scene.all_starts)
         directions = sample_orthant(rng, self.planning.seed_directions, self.num_features)
+        zeroed = self.planning.seed_zeroed
+        if zeroed:
+            ignoring = np.full((len(zeroed), self.num_features), -1.0)
+            for row, name in zip(ignoring, zeroed, strict=True):
+                row[scene.feature_names.index(name)] = 0.0
+            directions = np.concatenate([directions, normalize(ignoring)])
         problems = np.repeat(np.arange(count), len(directions))
         tiled = np.tile(directions, (count, 1))
         warm = library_warm(self.library, problems, tiled)

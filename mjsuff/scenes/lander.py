@@ -99,6 +99,8 @@ class LanderParams(SceneParams):
     are the scene's design: unset, they are the module's ``ZONE_SHAPE``, ``ZONE_RADII`` and
     ``START_OFFSETS`` (resolved on validation, so a resolved scenario says what ran)."""
 
+    feature_names = FEATURE_NAMES
+
     horizon: float = Field(4.0, gt=0.5, le=20.0, description="trajectory length (s)")
     knots: int = Field(5, ge=2, le=20, description="control knots per actuator")
     # Unset, the design is the module's constants, read when a scenario is validated (so a design

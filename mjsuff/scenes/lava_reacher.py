@@ -71,6 +71,8 @@ PRIMITIVE_REACH = (0.25, 0.5, 0.75, 1.0)
 class LavaReacherParams(SceneParams):
     """Instance parameters of the lava reacher."""
 
+    feature_names = FEATURE_NAMES
+
     horizon: float = Field(1.5, gt=0.2, le=10.0, description="trajectory length (s)")
     knots: int = Field(3, ge=2, le=20, description="control knots per joint")
 

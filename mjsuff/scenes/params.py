@@ -12,9 +12,9 @@ silently ignore.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from mjsuff.scenes.planning import PlanningSettings
 
@@ -47,6 +47,8 @@ class SceneParams(BaseModel):
     """Settings shared by every scene domain (subclasses add ``horizon`` and ``knots``)."""
 
     model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+    #: The scene's feature names (the names ``planning.seed_zeroed`` may give).
+    feature_names: ClassVar[tuple[str, ...]] = ()
 
     eval_starts: int = Field(6, ge=1, le=256, description="fixed evaluation starts (never demonstrated)")
     pool_starts: int = Field(10, ge=1, le=256, description="starts a demonstration can be asked from")
@@ -70,3 +72,13 @@ class SceneParams(BaseModel):
         description="π_MAP matches a held-out demo (validation set) when its trajectory features "
         "from the demo's start are within this of the demo's (feature units)",
     )
+
+    @model_validator(mode="after")
+    def _known_features(self) -> SceneParams:
+        unknown = [name for name in self.planning.seed_zeroed if name not in self.feature_names]
+        if unknown:
+            raise ValueError(
+                f"planning.seed_zeroed: {', '.join(map(repr, unknown))} is not a feature of this "
+                f"scene (expected some of: {', '.join(self.feature_names)})"
+            )
+        return self

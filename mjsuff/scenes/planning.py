@@ -103,6 +103,12 @@ class PlanningSettings(BaseModel):
         description="prior draws (all-negative reward directions) planned from every "
         "start up front: the random policy, and the library's seed",
     )
+    seed_zeroed: list[str] = Field(
+        default_factory=list,
+        description="feature names: for each, one more direction planned from every start beside "
+        "the seed_directions, every weight equal but that feature's, zeroed (the route a reward "
+        "that ignores it takes, e.g. through a keep-out zone); empty: none",
+    )
     seed_planner: PlannerConfig | None = Field(
         None,
         description="budget of those plans (warm-started from the library); unset = the "
