@@ -151,8 +151,9 @@ def library_best_knots(domain, w: np.ndarray, samples: np.ndarray, starts: np.nd
 def print_worst(domain, w, samples, starts, gap, knots, pairs: int, count: int, order, rank: int) -> None:
     """For the ``count`` largest gaps: the sample's weights, its place in the nEVD order (the
     bound's order statistic and the ``plan_samples`` below it are planned one by one), the nearest
-    direction planned or refined from the pair's start, and the features of the learner's library
-    best and of the 10× plan from that start (which features the better trajectory trades)."""
+    direction V* planned or refined from the pair's start (not the seed plans, nor π's), and the
+    features of the learner's library best and of the 10× plan from that start (which features
+    the better trajectory trades)."""
     names = " ".join(domain.scene.feature_names)
     print(f"  the {count} largest gaps, features ({names}):")
     for j in np.argsort(-gap, kind="stable")[:count]:
@@ -164,8 +165,8 @@ def print_worst(domain, w, samples, starts, gap, knots, pairs: int, count: int, 
         near = f"{(refined @ w[i]).max():.3f}" if len(refined) else "none"
         print(
             f"    {'top 10%' if j < pairs else 'decisive'} pair, start {s}, gap {gap[j]:.2%}: "
-            f"w {np.round(w[i], 3)}\n      the {place}th largest nEVD (the bound the {rank + 1}th); "
-            f"nearest direction planned or refined from the start: cosine {near}"
+            f"w {np.round(w[i], 3)}\n      place {place} in the nEVD order (the bound's: {rank + 1}); "
+            f"nearest direction V* planned or refined from the start: cosine {near}"
             f"\n      learner's best {np.round(features, 3)}"
             f"\n      10x plan       {np.round(planned[0], 3)}"
         )

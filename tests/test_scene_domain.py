@@ -336,7 +336,10 @@ def test_seed_plans_add_a_reward_ignoring_each_named_feature_when_set(monkeypatc
     (problems, weights, seeds), *_ = calls
     count = len(domain.scene.all_starts)
     assert weights.shape == (count * 4, domain.num_features)
-    directions = weights.reshape(count, 4, -1)[0]
+    per_start = weights.reshape(count, 4, -1)
+    np.testing.assert_array_equal(per_start, np.broadcast_to(per_start[0], per_start.shape))
+    np.testing.assert_array_equal(problems, np.repeat(np.arange(count), 4))
+    directions = per_start[0]
     np.testing.assert_array_equal(directions[:2], plain_weights.reshape(count, 2, -1)[0])
     lava, motion = (domain.scene.feature_names.index(name) for name in ("lava", "motion"))
     for row, feature in ((2, lava), (3, motion)):
@@ -348,9 +351,18 @@ def test_seed_plans_add_a_reward_ignoring_each_named_feature_when_set(monkeypatc
         assert best >= seeds.values[j] - 1e-9
 
 
-def test_seed_zeroed_names_must_be_the_scenes_features():
-    with pytest.raises(ScenarioError, match=r"planning.seed_zeroed: 'lava' is not a feature.*habitat"):
-        load_scenario("lander", ['domain.params.planning.seed_zeroed=["habitat", "lava"]'])
+@pytest.mark.parametrize(
+    ("names", "problem"),
+    [
+        ('["habitat", "lava"]', "'lava' is not a feature of this scene"),
+        ('["lava", "water"]', "'lava', 'water' are not features of this scene"),
+        ('["array", "habitat", "array"]', "'array' given more than once"),
+    ],
+)
+def test_seed_zeroed_names_must_be_distinct_features_of_the_scene(names, problem):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("lander", [f"domain.params.planning.seed_zeroed={names}"])
+    assert f"planning.seed_zeroed: {problem} (expected distinct names among: landing_error" in str(info.value)
 
 
 @pytest.mark.parametrize("revisit_cosine", [0.98, 0.999])

@@ -124,12 +124,7 @@ class SceneDomain(Domain):
             raise ValueError(
                 "planning.seed_directions: the random policy plans prior draws; at least 1 is needed"
             )
-        unknown = [name for name in planning.seed_zeroed if name not in scene.feature_names]
-        if unknown:
-            raise ValueError(
-                f"planning.seed_zeroed: {', '.join(map(repr, unknown))} is not a feature of this "
-                f"scene (features: {', '.join(scene.feature_names)})"
-            )
+        planning.check_seed_zeroed(scene.feature_names)
         self.scene = scene
         self.expert = expert
         self.rng = rng

@@ -75,10 +75,5 @@ class SceneParams(BaseModel):
 
     @model_validator(mode="after")
     def _known_features(self) -> SceneParams:
-        unknown = [name for name in self.planning.seed_zeroed if name not in self.feature_names]
-        if unknown:
-            raise ValueError(
-                f"planning.seed_zeroed: {', '.join(map(repr, unknown))} is not a feature of this "
-                f"scene (expected some of: {', '.join(self.feature_names)})"
-            )
+        self.planning.check_seed_zeroed(self.feature_names)
         return self

@@ -155,3 +155,22 @@ class PlanningSettings(BaseModel):
                 "seed_planner": self.seed_planner or seed,
             }
         )
+
+    def check_seed_zeroed(self, features: tuple[str, ...]) -> None:
+        """``ValueError`` unless ``seed_zeroed`` names distinct features among ``features`` (each
+        extra direction zeroes one of them and keeps the others, so a scene needs two or more)."""
+        names = self.seed_zeroed
+        unknown = [name for name in names if name not in features]
+        twice = sorted({name for name in names if names.count(name) > 1})
+        problem = None
+        if unknown:
+            verb = "is not a feature" if len(unknown) == 1 else "are not features"
+            problem = f"{', '.join(map(repr, unknown))} {verb} of this scene"
+        elif twice:
+            problem = f"{', '.join(map(repr, twice))} given more than once"
+        elif names and len(features) < 2:
+            problem = "a scene of one feature has no other weight to keep"
+        if problem:
+            raise ValueError(
+                f"planning.seed_zeroed: {problem} (expected distinct names among: {', '.join(features)})"
+            )
