@@ -103,8 +103,9 @@ class PlanningSettings(BaseModel):
         description="prior draws (all-negative reward directions) planned from every "
         "start up front: the random policy, and the library's seed",
     )
-    seed_zeroed: list[str] = Field(
-        default_factory=list,
+    seed_zeroed: tuple[str, ...] = Field(
+        (),
+        strict=False,
         description="feature names: for each, one more direction planned from every start beside "
         "the seed_directions, every weight equal but that feature's, zeroed (the route a reward "
         "that ignores it takes, e.g. through a keep-out zone); empty: none",
@@ -160,6 +161,11 @@ class PlanningSettings(BaseModel):
         """``ValueError`` unless ``seed_zeroed`` names distinct features among ``features`` (each
         extra direction zeroes one of them and keeps the others, so a scene needs two or more)."""
         names = self.seed_zeroed
+        if names and not features:
+            raise ValueError(
+                "planning.seed_zeroed: this scene declares no feature names "
+                "(its params class sets no feature_names), so no feature can be zeroed"
+            )
         unknown = [name for name in names if name not in features]
         twice = sorted({name for name in names if names.count(name) > 1})
         problem = None
