@@ -250,6 +250,24 @@ def test_a_key_an_older_run_lacks_shows_its_default(sweep_run, tmp_path):
     assert labelled == {"older": {"demos.lapse": 0.0}, "newer": {"demos.lapse": 0.2}}
 
 
+def test_a_domain_key_an_older_run_lacks_shows_its_default(sweep_run, tmp_path):
+    """The same for a key of the domain's own parameters (its default is the domain's, which
+    ``scenario_default`` cannot know): the older run lacks ``domain.params.baseline``, the newer
+    has "nonpessimal"; the older is labelled "random", the default it ran with, and a key both
+    runs have at its default is no label at all."""
+    cell = next(p.parent for p in sorted(sweep_run.glob("cells/*/steps.parquet")))
+    older, newer = tmp_path / "older", tmp_path / "newer"
+    edits = ((older, lambda d: d.pop("baseline")), (newer, lambda d: d.update(baseline="nonpessimal")))
+    for directory, edit in edits:
+        shutil.copytree(cell, directory)
+        config = tomllib.loads((directory / "config.toml").read_text())
+        edit(config["domain"]["params"])
+        (directory / "config.toml").write_text(tomli_w.dumps(config))
+    labelled = {c.directory.name: c.labels for c in load_cells([older, newer])}
+    key = "domain.params.baseline"
+    assert labelled == {"older": {key: "random"}, "newer": {key: "nonpessimal"}}
+
+
 def test_a_ctrl_c_while_a_figure_is_written_leaves_no_partial_file(sweep_run, tmp_path, monkeypatch, capsys):
     import matplotlib.figure
 

@@ -7,10 +7,12 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 import pandas as pd
 import pytest
+import tomli_w
 
 from mjsuff.cli import main
 from mjsuff.experiment import backend
@@ -113,6 +115,22 @@ def test_resume_can_add_replicates_and_refuses_a_different_scenario(tmp_path):
     run_scenario(small_scenario(replicates=3), out, record=True, overwrite=True)
     with pytest.raises(OutputError, match="without --no-record"):
         run_scenario(small_scenario(replicates=4), out, record=False, resume=True)
+
+
+def test_a_run_from_before_a_key_existed_resumes(tmp_path):
+    """A run whose ``config.toml`` lacks keys added since (here ``demos.lapse`` and the domain's
+    ``baseline``) ran with their defaults, so it resumes with a scenario that has them; a key it
+    has with another value is still refused (stop 64: runs from before ``planning.seed_zeroed``
+    could not be resumed)."""
+    out = tmp_path / "r"
+    run_scenario(small_scenario(replicates=1), out, record=False)
+    config = tomllib.loads((out / "config.toml").read_text())
+    del config["demos"]["lapse"], config["domain"]["params"]["baseline"]
+    (out / "config.toml").write_text(tomli_w.dumps(config))
+    assert run_scenario(small_scenario(replicates=2), out, record=False, resume=True).completed == 2
+    with pytest.raises(OutputError, match=r"domain\.params\.baseline"):
+        other = small_scenario(replicates=3, **{"domain.params.baseline": "nonpessimal"})
+        run_scenario(other, out, resume=True)
 
 
 def test_resume_needs_out_and_a_non_empty_out_needs_a_choice(tmp_path, capsys):

@@ -37,7 +37,7 @@ from mjsuff.experiment.run_summary import (
     finalize,
     finalize_sweep,
 )
-from mjsuff.experiment.scenario import Scenario, SweepCell, flat_keys
+from mjsuff.experiment.scenario import Scenario, SweepCell, flat_keys, stored_settings
 
 ProgressCallback = Callable[[int, int, float], None]
 """Called as ``(finished replicates, planned replicates, work done in replicates)``."""
@@ -45,16 +45,18 @@ ProgressCallback = Callable[[int, int, float], None]
 
 def check_resumable(directory: Path, scenario: Scenario, record: bool) -> None:
     """A run directory can be resumed with ``scenario``: the same scenario apart from
-    ``replicates`` (which may grow, not shrink), recorded as before."""
+    ``replicates`` (which may grow, not shrink), recorded as before. A key the run's
+    ``config.toml`` lacks (added since) counts as its default, the behaviour the run had."""
     import tomllib
 
     config = directory / "config.toml"
     if not config.is_file():
         raise OutputError(f"{directory}: --resume: no config.toml here, so no run to resume")
     try:
-        old = flat_keys(tomllib.loads(config.read_text()))
+        stored = tomllib.loads(config.read_text())
     except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise OutputError(f"{config}: --resume: cannot read the run's scenario ({exc})") from None
+    old = flat_keys(stored_settings(stored))  # a key added since the run: its default
     new = flat_keys(tomllib.loads(scenario.to_toml()))
     for key in sorted(set(old) | set(new)):
         if key != "replicates" and old.get(key) != new.get(key):

@@ -237,6 +237,17 @@ def scenario_default(key: str) -> Any:
     return None if isinstance(field.default, BaseModel) else field.default
 
 
+def stored_settings(data: dict[str, Any]) -> dict[str, Any]:
+    """A run's stored ``config.toml`` (parsed) with every key it lacks filled with its default,
+    the domain's parameters too, as ``Scenario.to_toml`` writes them: a key added after the run
+    defaults to the behaviour before it existed, so this is what the run ran with. The data as
+    stored when it no longer validates (a key since removed or renamed)."""
+    try:
+        return tomllib.loads(scenario_from_dict(copy.deepcopy(data), "config.toml").to_toml())
+    except (ScenarioError, ValueError):  # pydantic's ValidationError is a ValueError
+        return data
+
+
 _UNSWEEPABLE = {"name", "seed", "replicates", "sweep"}
 
 

@@ -16,7 +16,7 @@ from typing import Any
 import pandas as pd
 
 from mjsuff.errors import MjsuffError
-from mjsuff.experiment.scenario import flat_keys, scenario_default
+from mjsuff.experiment.scenario import flat_keys, scenario_default, stored_settings
 
 
 class ReportError(MjsuffError, ValueError):
@@ -136,7 +136,8 @@ def load_cells(directories: list[Path]) -> list[ReportCell]:
             raise ReportError(f"{d}: a sweep; report it on its own (mjsuff report {d})")
     configs = [_config(d) for d in directories]
     flat = [
-        flat_keys({k: v for k, v in c.items() if k not in ("seed", "replicates", "name")}) for c in configs
+        flat_keys({k: v for k, v in stored_settings(c).items() if k not in ("seed", "replicates", "name")})
+        for c in configs
     ]
     differing = sorted({k for f in flat for k in f if any(g.get(k) != f.get(k) for g in flat)})
     return [
