@@ -85,7 +85,7 @@ def measure(
         seconds = time.perf_counter() - t
     sw, mu_rand = domain.start_weights, domain.random_start_feature_expectations()
     nevd = normalized_evd(v_star @ sw, policy_values(w, mu_robot, sw), policy_values(w, mu_rand, sw))
-    order = np.argsort(-nevd)
+    order = np.argsort(-nevd, kind="stable")  # the nEVD order after the learner's V* (final)
     rank = len(w) - 1 - bound_index(nevd)
     tail, decisive = order[: len(w) // 10], order[rank : rank + len(w) // 10]
     far = np.degrees(np.arccos(np.clip(w[tail] @ domain.true_weights, -1, 1)))
@@ -148,9 +148,13 @@ def library_best_knots(domain, w: np.ndarray, samples: np.ndarray, starts: np.nd
     )
 
 
-def print_worst(domain, w, samples, starts, gap, knots, pairs: int, count: int, order, rank: int) -> None:
-    """For the ``count`` largest gaps: the sample's weights, its place in the nEVD order (the
-    bound's order statistic and the ``plan_samples`` below it are planned one by one), the nearest
+def print_worst(
+    domain, w, samples, starts, gap, knots, pairs: int, count: int, order: np.ndarray, rank: int
+) -> None:
+    """For the ``count`` largest gaps: the sample's weights, its place in the nEVD order after the
+    learner's V* (the bound's order statistic and the ``plan_samples`` below it are planned one by
+    one, chosen by the order before that V*, so a place is near, not always at, the one they
+    were chosen by), the nearest
     direction V* planned or refined from the pair's start (not the seed plans, nor π's), and the
     features of the learner's library best and of the 10× plan from that start (which features
     the better trajectory trades)."""
@@ -165,7 +169,7 @@ def print_worst(domain, w, samples, starts, gap, knots, pairs: int, count: int, 
         near = f"{(refined @ w[i]).max():.3f}" if len(refined) else "none"
         print(
             f"    {'top 10%' if j < pairs else 'decisive'} pair, start {s}, gap {gap[j]:.2%}: "
-            f"w {np.round(w[i], 3)}\n      place {place} in the nEVD order (the bound's: {rank + 1}); "
+            f"w {np.round(w[i], 3)}\n      place {place} in the final nEVD order (the bound's: {rank + 1}); "
             f"nearest direction V* planned or refined from the start: cosine {near}"
             f"\n      learner's best {np.round(features, 3)}"
             f"\n      10x plan       {np.round(planned[0], 3)}"

@@ -5,6 +5,7 @@ the expensive pieces (expert demos, planning) run once.
 """
 
 import copy
+import re
 import tomllib
 from pathlib import Path
 
@@ -312,7 +313,7 @@ def test_the_decisive_samples_get_a_second_search_from_the_same_warm_start_when_
     np.testing.assert_array_equal(warm_starts[0], warm_starts[1])
 
 
-def test_seed_plans_add_a_reward_ignoring_each_named_feature_when_set(monkeypatch):
+def test_seed_zeroed_adds_a_seed_plan_ignoring_each_named_feature(monkeypatch):
     """``planning.seed_zeroed``: beside the ``seed_directions`` prior draws (the same draws as
     without it), each start plans one direction per named feature, every weight equal but that
     feature's, zeroed, and its plan enters the library (the library's best under that reward is
@@ -341,14 +342,17 @@ def test_seed_plans_add_a_reward_ignoring_each_named_feature_when_set(monkeypatc
     np.testing.assert_array_equal(problems, np.repeat(np.arange(count), 4))
     directions = per_start[0]
     np.testing.assert_array_equal(directions[:2], plain_weights.reshape(count, 2, -1)[0])
-    lava, motion = (domain.scene.feature_names.index(name) for name in ("lava", "motion"))
+    lava, motion = 1, 3  # the reacher's features: distance, lava, water, motion (step_features)
     for row, feature in ((2, lava), (3, motion)):
         expected = np.full(4, -1 / np.sqrt(3))
         expected[feature] = 0.0
         np.testing.assert_allclose(directions[row], expected)
-    for j in np.flatnonzero(weights[:, lava] == 0.0):
-        best = domain.library.best_value(int(problems[j]), weights[j : j + 1])[0]
-        assert best >= seeds.values[j] - 1e-9
+    for feature in (lava, motion):
+        zeroed = np.flatnonzero(weights[:, feature] == 0.0)
+        assert len(zeroed) == count
+        for j in zeroed:
+            best = domain.library.best_value(int(problems[j]), weights[j : j + 1])[0]
+            assert best >= seeds.values[j] - 1e-9
 
 
 @pytest.mark.parametrize(
@@ -357,12 +361,41 @@ def test_seed_plans_add_a_reward_ignoring_each_named_feature_when_set(monkeypatc
         ('["habitat", "lava"]', "'lava' is not a feature of this scene"),
         ('["lava", "water"]', "'lava', 'water' are not features of this scene"),
         ('["array", "habitat", "array"]', "'array' given more than once"),
+        ('"habitat"', 'expected a list of feature names, e.g. ["habitat"]'),
     ],
 )
 def test_seed_zeroed_names_must_be_distinct_features_of_the_scene(names, problem):
     with pytest.raises(ScenarioError) as info:
         load_scenario("lander", [f"domain.params.planning.seed_zeroed={names}"])
-    assert f"planning.seed_zeroed: {problem} (expected distinct names among: landing_error" in str(info.value)
+    assert f"planning.seed_zeroed: {problem}" in str(info.value)
+    assert "expected" in str(info.value)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_each_scene_params_names_the_features_its_scene_computes(name):
+    """``planning.seed_zeroed`` is checked against the params class's ``feature_names`` and
+    applied by the scene's: the two must be the same names in the same order."""
+    spec = get_domain(name)
+    assert spec.params.feature_names == spec.scene.feature_names
+    assert len(spec.params.feature_names) >= 2
+
+
+def test_a_scene_domain_checks_seed_zeroed_before_any_planning(case, monkeypatch):
+    """Built directly (not through a scenario's params), the domain refuses an unknown name
+    before it plans anything."""
+    from mjsuff.scenes import domain as domain_module
+    from mjsuff.scenes.planning import PlanningSettings
+
+    domain, _ = case
+    monkeypatch.setattr(domain_module.SamplingPlanner, "plan", lambda *a, **k: pytest.fail("planned"))
+    with pytest.raises(ValueError, match=re.escape("planning.seed_zeroed: 'bogus' is not a feature")):
+        domain_module.SceneDomain(
+            domain.scene,
+            domain.true_weights,
+            np.random.default_rng(0),
+            planning=PlanningSettings(seed_zeroed=["bogus"]),
+            expert=domain.expert,
+        )
 
 
 @pytest.mark.parametrize("revisit_cosine", [0.98, 0.999])
@@ -484,7 +517,7 @@ def test_seed_zeroed_from_a_list_is_a_tuple_and_the_settings_stay_hashable():
 @pytest.mark.parametrize(
     ("features", "problem"),
     [
-        (("lava",), "a scene of one feature has no other weight to keep"),
+        (("lava",), "a scene of one feature has no other weight to keep (expected it empty)"),
         ((), "this scene declares no feature names"),
     ],
 )
@@ -493,7 +526,7 @@ def test_seed_zeroed_needs_a_scene_of_two_or_more_declared_features(features, pr
 
     settings = PlanningSettings(seed_zeroed=["lava"])
     PlanningSettings().check_seed_zeroed(features)  # nothing named: any scene
-    with pytest.raises(ValueError, match=f"planning.seed_zeroed: {problem}"):
+    with pytest.raises(ValueError, match=re.escape(f"planning.seed_zeroed: {problem}")):
         settings.check_seed_zeroed(features)
 
 

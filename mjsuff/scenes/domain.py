@@ -21,7 +21,9 @@ so large that any purposeful policy scores a tiny nEVD.) The library is seeded w
 primitives (its path family fitted to the robot's knots) and the scene's own
 (``Scene.primitive_knots``: the reacher's straight joint-space moves toward goal postures) from
 every start, and with plans of ``seed_directions`` prior draws (a wide search), so it holds each
-mode's optimum before the first demo.
+mode's optimum before the first demo; with ``planning.seed_zeroed``, also with a plan of each
+named feature's zone-free direction (that weight 0, every other equal), the route a reward that
+ignores the feature takes.
 
 Likelihood (DESIGN, trajectory-level Bayesian IRL): a Boltzmann choice of each demo among its
 candidate set (``mjsuff.scenes.candidates``), in ``mjsuff.scenes.likelihood``: a batch of weights

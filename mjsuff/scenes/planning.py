@@ -6,7 +6,7 @@ A scenario sets them under ``[domain.params.planning]``; they trade run time aga
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from mjsuff.scenes.planner_config import PlannerConfig
 
@@ -106,9 +106,10 @@ class PlanningSettings(BaseModel):
     seed_zeroed: tuple[str, ...] = Field(
         (),
         strict=False,
-        description="feature names: for each, one more direction planned from every start beside "
-        "the seed_directions, every weight equal but that feature's, zeroed (the route a reward "
-        "that ignores it takes, e.g. through a keep-out zone); empty: none",
+        description="feature names (a list): for each, one more direction planned from every "
+        "start beside the seed_directions, that feature's weight 0 and every other −1/√(k−1) (the "
+        "route a reward that ignores it takes, e.g. through a keep-out zone); empty: none. Setting "
+        "it changes the instance's random stream (the seed plans draw from it)",
     )
     seed_planner: PlannerConfig | None = Field(
         None,
@@ -134,6 +135,13 @@ class PlanningSettings(BaseModel):
         "in the first (after it the cloud is about 58% of a pass's steps and raised no start by "
         "more than 0.001 in 7 passes, stop 55, benchmarks/truth_phases.py)",
     )
+
+    @field_validator("seed_zeroed", mode="before")
+    @classmethod
+    def _names_as_a_list(cls, value: object) -> object:
+        if isinstance(value, str):
+            raise ValueError(f'expected a list of feature names, e.g. ["{value}"] (got the string {value!r})')
+        return value
 
     @model_validator(mode="after")
     def _check(self) -> PlanningSettings:
@@ -161,12 +169,16 @@ class PlanningSettings(BaseModel):
         """``ValueError`` unless ``seed_zeroed`` names distinct features among ``features`` (each
         extra direction zeroes one of them and keeps the others, so a scene needs two or more)."""
         names = self.seed_zeroed
-        if names and not features:
-            raise ValueError(
-                "planning.seed_zeroed: this scene declares no feature names "
-                "(its params class sets no feature_names), so no feature can be zeroed"
+        if not names:
+            return
+        if len(features) < 2:
+            problem = (
+                "this scene declares no feature names (its params class sets no feature_names)"
+                if not features
+                else "a scene of one feature has no other weight to keep"
             )
-        unknown = [name for name in names if name not in features]
+            raise ValueError(f"planning.seed_zeroed: {problem} (expected it empty)")
+        unknown = list(dict.fromkeys(name for name in names if name not in features))
         twice = sorted({name for name in names if names.count(name) > 1})
         problem = None
         if unknown:
@@ -174,8 +186,6 @@ class PlanningSettings(BaseModel):
             problem = f"{', '.join(map(repr, unknown))} {verb} of this scene"
         elif twice:
             problem = f"{', '.join(map(repr, twice))} given more than once"
-        elif names and len(features) < 2:
-            problem = "a scene of one feature has no other weight to keep"
         if problem:
             raise ValueError(
                 f"planning.seed_zeroed: {problem} (expected distinct names among: {', '.join(features)})"
