@@ -5,7 +5,7 @@ import signal
 import pandas as pd
 import pytest
 
-from mjsuff.experiment.backend import ReplicateTask
+from mjsuff.experiment.backend import ReplicateTask, shared_threads
 from mjsuff.experiment.backends import BackendError, LocalBackend, SerialBackend, make_backend
 from mjsuff.experiment.run_summary import RECORDING
 from mjsuff.experiment.runner import run_scenario
@@ -55,6 +55,19 @@ def test_ray_matches_serial(serial_run, tmp_path):
     pd.testing.assert_frame_equal(
         pd.read_parquet(serial_run / "steps.parquet"), pd.read_parquet(tmp_path / "ray" / "steps.parquet")
     )
+
+
+@pytest.mark.parametrize(
+    ("cores", "replicates", "threads"), [(8, 1, 8), (8, 2, 4), (8, 3, 2), (2, 5, 1), (1, 1, 1)]
+)
+def test_replicates_at_once_share_the_cores(cores, replicates, threads):
+    assert shared_threads(cores, replicates) == threads
+
+
+@pytest.mark.parametrize(("cores", "replicates"), [(4, 0), (0, 2)])
+def test_shared_threads_needs_a_core_and_a_replicate(cores, replicates):
+    with pytest.raises(ValueError, match="must be ≥ 1"):
+        shared_threads(cores, replicates)
 
 
 def test_backend_choices_are_checked():

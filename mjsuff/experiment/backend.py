@@ -28,7 +28,13 @@ from mjsuff.experiment.scenario import Scenario
 def shared_threads(cores: int, replicates: int) -> int:
     """Rollout threads of each of ``replicates`` ≥ 1 replicates running at once on ``cores``
     cores: the cores shared among no more replicates than there are cores, at least one each
-    (a single replicate gets them all; the thread count never changes results)."""
+    (a single replicate gets them all; the thread count never changes results).
+
+    Raises:
+        ValueError: ``cores`` or ``replicates`` is under 1.
+    """
+    if cores < 1 or replicates < 1:
+        raise ValueError(f"shared_threads: cores and replicates must be ≥ 1 (got {cores}, {replicates})")
     return max(1, cores // min(cores, replicates))
 
 
