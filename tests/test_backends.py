@@ -76,6 +76,28 @@ def test_backend_choices_are_checked():
     with pytest.raises(BackendError, match="--backend"):
         make_backend("slurm")
     assert isinstance(make_backend("local", workers=1), SerialBackend)
+    with pytest.raises(BackendError, match="--cpus-per-task: only with --backend ray"):
+        make_backend("local", workers=2, cpus_per_task=2)
+
+
+def test_cpus_per_task_is_checked_before_any_replicate_runs():
+    """A replicate asking for more CPUs than the local instance has would never be scheduled:
+    connecting says so (the CLI connects before it writes anything); a cluster may have larger
+    nodes, so there it is not checked."""
+    pytest.importorskip("ray", reason="the ray extra is not installed")
+    from mjsuff.experiment.ray_backend import RayBackend
+
+    with pytest.raises(BackendError, match=r"--cpus-per-task: expected a positive number \(got 0\)"):
+        RayBackend(cpus_per_task=0)
+    for address in (None, "local"):
+        backend = RayBackend(address, cpus_per_task=4)
+        backend.ray = _FakeRay(2)
+        with pytest.raises(BackendError, match=r"the local Ray instance has 2 CPUs.*expected at most 2"):
+            backend.connect()
+    backend = RayBackend("10.0.0.1:6379", cpus_per_task=4)
+    backend.ray = _FakeRay(2)
+    backend.connect()  # already connected (the fake), a cluster: no check
+    assert backend.task_cpus(3) == 4
 
 
 class _FakeRay:

@@ -102,6 +102,12 @@ def add_parser(commands: Any) -> None:
     run.add_argument(
         "--address", help="ray: address of a running cluster (default: start a local Ray instance)"
     )
+    run.add_argument(
+        "--cpus-per-task",
+        type=int,
+        help="ray: CPUs each replicate reserves, and its MuJoCo rollout threads (default: a local "
+        "instance's CPUs shared among the replicates; 1 on a cluster)",
+    )
     run.set_defaults(func=cmd_run)
 
 
@@ -110,7 +116,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.resume and not args.out:
         raise UsageError("--resume: name the run directory to continue with --out DIR")
     directory = Path(args.out or f"runs/{scenario.name}-{time.strftime('%Y%m%d-%H%M%S')}")
-    backend = make_backend(args.backend, args.workers, args.address)
+    backend = make_backend(args.backend, args.workers, args.address, args.cpus_per_task)
     sources = None
     if args.demos:
         from mjsuff.experiment.recorded_demos import load_recorded_demos  # mink only when asked for

@@ -36,8 +36,13 @@ __all__ = [
 ]
 
 
-def make_backend(name: str, workers: int | None = None, address: str | None = None) -> Backend:
-    """``serial``, ``local`` (``workers`` processes; one worker means serial) or ``ray``."""
+def make_backend(
+    name: str, workers: int | None = None, address: str | None = None, cpus_per_task: int | None = None
+) -> Backend:
+    """``serial``, ``local`` (``workers`` processes; one worker means serial) or ``ray`` (each
+    replicate reserving ``cpus_per_task`` CPUs, as many rollout threads; ``None``: the default)."""
+    if cpus_per_task is not None and name != "ray":
+        raise BackendError(f"--cpus-per-task: only with --backend ray (got --backend {name})")
     if name == "local":
         if workers == 1:
             return SerialBackend()
@@ -45,5 +50,5 @@ def make_backend(name: str, workers: int | None = None, address: str | None = No
     if name == "serial":
         return SerialBackend()
     if name == "ray":
-        return RayBackend(address, num_cpus=workers)
+        return RayBackend(address, num_cpus=workers, cpus_per_task=cpus_per_task)
     raise BackendError(f"--backend: expected one of local, serial, ray (got {name!r})")

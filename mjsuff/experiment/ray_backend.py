@@ -51,7 +51,7 @@ class RayBackend(Backend):
         except ImportError:
             raise BackendError("--backend ray: Ray is not installed; pip install 'mjsuff[ray]'") from None
         if cpus_per_task is not None and cpus_per_task < 1:
-            raise BackendError(f"cpus_per_task: expected a positive number, got {cpus_per_task}")
+            raise BackendError(f"--cpus-per-task: expected a positive number (got {cpus_per_task})")
         self.ray = ray
         self.address = address
         self.num_cpus = num_cpus
@@ -69,10 +69,25 @@ class RayBackend(Backend):
 
         Raises:
             ClusterConnectionError: the cluster cannot be reached or refused this client.
-            BackendError: the address is not one Ray accepts.
+            BackendError: the address is not one Ray accepts, or a replicate would reserve more
+                CPUs (``cpus_per_task``) than the local instance has.
         """
-        if self.ray.is_initialized():
-            return
+        if not self.ray.is_initialized():
+            self._init()
+        if self.cpus_per_task is not None and self._local:
+            have = int(self.ray.cluster_resources().get("CPU", 1))
+            if self.cpus_per_task > have:
+                raise BackendError(
+                    f"--cpus-per-task: the local Ray instance has {have} CPUs, so a replicate "
+                    f"reserving {self.cpus_per_task} would wait for ever (expected at most {have})"
+                )
+
+    @property
+    def _local(self) -> bool:
+        """A local instance (started here, or found by ``--address local``), not a cluster."""
+        return self.address in (None, "", "local")
+
+    def _init(self) -> None:
         options: dict[str, Any] = {
             "include_dashboard": False,
             "log_to_driver": False,
@@ -127,7 +142,7 @@ class RayBackend(Backend):
         may be one the caller started (a task asking for more would wait for ever)."""
         if self.cpus_per_task is not None:
             return self.cpus_per_task
-        if self.address not in (None, "", "local"):
+        if not self._local:
             return 1
         return shared_threads(max(1, int(self.ray.cluster_resources().get("CPU", 1))), tasks)
 
