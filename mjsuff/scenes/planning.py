@@ -172,12 +172,12 @@ class PlanningSettings(BaseModel):
         if not names:
             return
         if len(features) < 2:
-            problem = (
+            reason = (
                 "this scene declares no feature names (its params class sets no feature_names)"
                 if not features
                 else "a scene of one feature has no other weight to keep"
             )
-            raise ValueError(f"planning.seed_zeroed: {problem} (expected it empty)")
+            raise ValueError(f"planning.seed_zeroed: {reason} (expected it empty)")
         unknown = list(dict.fromkeys(name for name in names if name not in features))
         twice = sorted({name for name in names if names.count(name) > 1})
         problem = None
