@@ -5,6 +5,7 @@ import signal
 import pandas as pd
 import pytest
 
+from mjsuff.cli import main
 from mjsuff.experiment.backend import ReplicateTask, shared_threads
 from mjsuff.experiment.backends import BackendError, LocalBackend, SerialBackend, make_backend
 from mjsuff.experiment.run_summary import RECORDING
@@ -87,7 +88,7 @@ def test_cpus_per_task_is_checked_before_any_replicate_runs():
     pytest.importorskip("ray", reason="the ray extra is not installed")
     from mjsuff.experiment.ray_backend import RayBackend
 
-    with pytest.raises(BackendError, match=r"--cpus-per-task: expected a positive number \(got 0\)"):
+    with pytest.raises(BackendError, match="--cpus-per-task: expected a positive number, got 0"):
         RayBackend(cpus_per_task=0)
     for address in (None, "local"):
         backend = RayBackend(address, cpus_per_task=4)
@@ -98,6 +99,28 @@ def test_cpus_per_task_is_checked_before_any_replicate_runs():
     backend.ray = _FakeRay(2)
     backend.connect()  # already connected (the fake), a cluster: no check
     assert backend.task_cpus(3) == 4
+
+    class NotStarted(_FakeRay):
+        def is_initialized(self):
+            return False
+
+        def init(self, **options):
+            pytest.fail("started an instance only to refuse it")
+
+    backend = RayBackend(None, num_cpus=2, cpus_per_task=4)
+    backend.ray = NotStarted(2)
+    with pytest.raises(BackendError, match=r"has 2 CPUs \(--workers sets them\)"):
+        backend.connect()
+
+
+def test_cpus_per_task_with_another_backend_is_one_line_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", "gridworld", "--out", str(out), "--cpus-per-task", "2"]) == 2
+    assert not out.exists()
+    assert (
+        capsys.readouterr().err.strip()
+        == "error: --cpus-per-task: only with --backend ray (got --backend local)"
+    )
 
 
 class _FakeRay:

@@ -133,6 +133,17 @@ def test_a_run_from_before_a_key_existed_resumes(tmp_path):
         run_scenario(other, out, resume=True)
 
 
+def test_a_run_whose_scenario_no_longer_validates_is_not_resumed(tmp_path):
+    """A config.toml from before a key moved (issue #18) names the move, not some other key."""
+    out = tmp_path / "r"
+    run_scenario(small_scenario(replicates=1), out, record=False)
+    config = tomllib.loads((out / "config.toml").read_text())
+    config["rules"]["match_tolerance"] = 0.1
+    (out / "config.toml").write_text(tomli_w.dumps(config))
+    with pytest.raises(OutputError, match=r"no longer validates .*rules\.match_tolerance: a scene setting"):
+        run_scenario(small_scenario(replicates=2), out, record=False, resume=True)
+
+
 def test_resume_needs_out_and_a_non_empty_out_needs_a_choice(tmp_path, capsys):
     assert main(["run", GRIDWORLD, "--resume"]) == 2
     assert "--out" in capsys.readouterr().err

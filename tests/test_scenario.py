@@ -226,3 +226,23 @@ def test_scene_settings_that_moved_name_their_new_key(tmp_path, text, sets, expe
     with pytest.raises(ScenarioError) as info:
         load_scenario(path, sets)
     assert expected in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("key", "domain", "may_be_none"),
+    [
+        ("demos.lapse", "gridworld", False),  # added in stop 39: a run without it had 0.0
+        ("domain.params.baseline", "gridworld", False),
+        ("domain.params.planning.seed_zeroed", "lander", False),
+        ("posterior.min_ess", "gridworld", True),  # None is left out of config.toml: absent may be None
+        ("domain.params.planning.planner.population", "lander", True),  # inside a section that may be None
+        ("demos.no_such_key", "gridworld", True),
+    ],
+)
+def test_a_key_a_stored_config_lacks_is_filled_only_when_it_cannot_be_none(key, domain, may_be_none):
+    """``stored_settings`` fills a key an older run's config.toml lacks with its default only when
+    the absence cannot be a ``None`` the run had (``to_toml`` leaves ``None`` out), so a default
+    that changes later does not stand in for it."""
+    from mjsuff.experiment.scenario import _may_be_none
+
+    assert _may_be_none(key, domain) is may_be_none

@@ -51,7 +51,7 @@ class RayBackend(Backend):
         except ImportError:
             raise BackendError("--backend ray: Ray is not installed; pip install 'mjsuff[ray]'") from None
         if cpus_per_task is not None and cpus_per_task < 1:
-            raise BackendError(f"--cpus-per-task: expected a positive number (got {cpus_per_task})")
+            raise BackendError(f"--cpus-per-task: expected a positive number, got {cpus_per_task}")
         self.ray = ray
         self.address = address
         self.num_cpus = num_cpus
@@ -72,20 +72,28 @@ class RayBackend(Backend):
             BackendError: the address is not one Ray accepts, or a replicate would reserve more
                 CPUs (``cpus_per_task``) than the local instance has.
         """
-        if not self.ray.is_initialized():
+        started = self.ray.is_initialized()
+        if not started and not self.address:  # the instance this starts: its CPUs are known
+            self._check_cpus_per_task(self.num_cpus or thread_budget())
+        if not started:
             self._init()
-        if self.cpus_per_task is not None and self._local:
-            have = int(self.ray.cluster_resources().get("CPU", 1))
-            if self.cpus_per_task > have:
-                raise BackendError(
-                    f"--cpus-per-task: the local Ray instance has {have} CPUs, so a replicate "
-                    f"reserving {self.cpus_per_task} would wait for ever (expected at most {have})"
-                )
+        if self._local and self.cpus_per_task is not None:
+            self._check_cpus_per_task(int(self.ray.cluster_resources().get("CPU", 1)))
 
     @property
     def _local(self) -> bool:
-        """A local instance (started here, or found by ``--address local``), not a cluster."""
+        """A local instance (no address, or ``local``: one on this machine), not a cluster."""
         return self.address in (None, "", "local")
+
+    def _check_cpus_per_task(self, have: int) -> None:
+        """``BackendError`` when a replicate would reserve more CPUs than the local instance's
+        ``have`` (it would never be scheduled)."""
+        if self.cpus_per_task is not None and self.cpus_per_task > have:
+            workers = " (--workers sets them)" if self.num_cpus is not None and not self.address else ""
+            raise BackendError(
+                f"--cpus-per-task: the local Ray instance has {have} CPUs{workers}, so a replicate "
+                f"reserving {self.cpus_per_task} would wait for ever (expected at most {have})"
+            )
 
     def _init(self) -> None:
         options: dict[str, Any] = {

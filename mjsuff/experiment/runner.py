@@ -37,7 +37,7 @@ from mjsuff.experiment.run_summary import (
     finalize,
     finalize_sweep,
 )
-from mjsuff.experiment.scenario import Scenario, SweepCell, flat_keys, stored_settings
+from mjsuff.experiment.scenario import Scenario, ScenarioError, SweepCell, flat_keys, stored_settings
 
 ProgressCallback = Callable[[int, int, float], None]
 """Called as ``(finished replicates, planned replicates, work done in replicates)``."""
@@ -56,7 +56,13 @@ def check_resumable(directory: Path, scenario: Scenario, record: bool) -> None:
         stored = tomllib.loads(config.read_text())
     except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise OutputError(f"{config}: --resume: cannot read the run's scenario ({exc})") from None
-    old = flat_keys(stored_settings(stored))  # a key added since the run: its default
+    try:
+        old = stored_settings(stored, str(config))  # a key added since the run: its default
+    except ScenarioError as exc:
+        raise OutputError(
+            f"{directory}: --resume: the run's scenario no longer validates ({exc}); it was made by "
+            "another version of mjsuff: start a new run"
+        ) from None
     new = flat_keys(tomllib.loads(scenario.to_toml()))
     for key in sorted(set(old) | set(new)):
         if key != "replicates" and old.get(key) != new.get(key):

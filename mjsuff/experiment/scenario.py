@@ -16,7 +16,7 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
@@ -237,15 +237,44 @@ def scenario_default(key: str) -> Any:
     return None if isinstance(field.default, BaseModel) else field.default
 
 
-def stored_settings(data: dict[str, Any]) -> dict[str, Any]:
-    """A run's stored ``config.toml`` (parsed) with every key it lacks filled with its default,
-    the domain's parameters too, as ``Scenario.to_toml`` writes them: a key added after the run
-    defaults to the behaviour before it existed, so this is what the run ran with. The data as
-    stored when it no longer validates (a key since removed or renamed)."""
-    try:
-        return tomllib.loads(scenario_from_dict(copy.deepcopy(data), "config.toml").to_toml())
-    except (ScenarioError, ValueError):  # pydantic's ValidationError is a ValueError
-        return data
+def stored_settings(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """A run's stored ``config.toml`` (parsed) as flat keys (``flat_keys``), each key it lacks
+    that was added since filled with its default: a key added to the scenario defaults to the
+    behaviour before it existed, so that is what the run ran with (the domain's parameters too).
+    A key that may be ``None`` is not filled: ``to_toml`` leaves ``None`` out, so its absence may
+    be the ``None`` the run had, and a later default must not stand in for it.
+
+    Raises:
+        ScenarioError: The data no longer validates (a key since moved or removed); names ``source``.
+    """
+    scenario = scenario_from_dict(copy.deepcopy(data), source)
+    stored = flat_keys(data)
+    for key, value in flat_keys(tomllib.loads(scenario.to_toml())).items():
+        if key not in stored and not _may_be_none(key, scenario.domain.name):
+            stored[key] = value
+    return stored
+
+
+def _may_be_none(key: str, domain: str) -> bool:
+    """Whether the setting at dotted ``key``, or a section above it, may be ``None`` (or is not a
+    setting of the current models)."""
+    parts = key.split(".")
+    model: type[BaseModel] = Scenario
+    if parts[:2] == ["domain", "params"]:
+        model, parts = get_domain(domain).params, parts[2:]
+    for depth, part in enumerate(parts):
+        field = model.model_fields.get(part)
+        if field is None:
+            return True
+        kinds = get_args(field.annotation) or (field.annotation,)
+        if type(None) in kinds:
+            return True
+        if depth < len(parts) - 1:
+            sections = [k for k in kinds if isinstance(k, type) and issubclass(k, BaseModel)]
+            if not sections:
+                return True
+            model = sections[0]
+    return False
 
 
 _UNSWEEPABLE = {"name", "seed", "replicates", "sweep"}

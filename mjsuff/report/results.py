@@ -123,6 +123,15 @@ def _flat_default(key: str) -> Any:
     return flat_keys({key: scenario_default(key)})[key]
 
 
+def _settings(config: dict[str, Any]) -> dict[str, Any]:
+    """A run's settings as flat keys, those added since it ran filled (``stored_settings``); as
+    stored when its config no longer validates or its domain cannot be loaded (labels only)."""
+    try:
+        return stored_settings(config, "config.toml")
+    except Exception:  # another version's config, an external domain that fails to import
+        return flat_keys(config)
+
+
 def load_cells(directories: list[Path]) -> list[ReportCell]:
     """The cells of one run or sweep directory, or of several run directories (labelled by the
     scenario keys in which they differ; a key an older run's config lacks shows its default, the
@@ -136,13 +145,17 @@ def load_cells(directories: list[Path]) -> list[ReportCell]:
             raise ReportError(f"{d}: a sweep; report it on its own (mjsuff report {d})")
     configs = [_config(d) for d in directories]
     flat = [
-        flat_keys({k: v for k, v in stored_settings(c).items() if k not in ("seed", "replicates", "name")})
-        for c in configs
+        {k: v for k, v in _settings(c).items() if k not in ("seed", "replicates", "name")} for c in configs
     ]
-    differing = sorted({k for f in flat for k in f if any(g.get(k) != f.get(k) for g in flat)})
+
+    def value(settings: dict[str, Any], key: str) -> Any:
+        return settings[key] if key in settings else _flat_default(key)
+
+    keys = sorted({k for f in flat for k in f})
+    differing = [k for k in keys if any(value(g, k) != value(flat[0], k) for g in flat)]
     return [
         ReportCell(
-            {k: f[k] if k in f else _flat_default(k) for k in differing},
+            {k: value(f, k) for k in differing},
             _thresholds(c),
             _steps(d),
             c.get("name", d.name),

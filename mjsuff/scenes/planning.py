@@ -141,6 +141,8 @@ class PlanningSettings(BaseModel):
     def _names_as_a_list(cls, value: object) -> object:
         if isinstance(value, str):
             raise ValueError(f'expected a list of feature names, e.g. ["{value}"] (got the string {value!r})')
+        if not isinstance(value, list | tuple):  # a set's order would vary from run to run
+            raise ValueError(f"expected a list of feature names (got {value!r})")
         return value
 
     @model_validator(mode="after")
@@ -173,7 +175,7 @@ class PlanningSettings(BaseModel):
             return
         if len(features) < 2:
             reason = (
-                "this scene declares no feature names (its params class sets no feature_names)"
+                "this scene declares no feature names (its feature_names is empty)"
                 if not features
                 else "a scene of one feature has no other weight to keep"
             )
