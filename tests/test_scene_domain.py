@@ -521,7 +521,7 @@ def test_seed_zeroed_from_a_list_is_a_tuple_and_the_settings_stay_hashable():
     ("features", "problem"),
     [
         (("lava",), "a scene of one feature has no other weight to keep (expected it empty)"),
-        ((), "this scene declares no feature names"),
+        ((), "this scene declares no feature names (expected it empty)"),
     ],
 )
 def test_seed_zeroed_needs_a_scene_of_two_or_more_declared_features(features, problem):

@@ -175,7 +175,7 @@ class PlanningSettings(BaseModel):
             return
         if len(features) < 2:
             reason = (
-                "this scene declares no feature names (its feature_names is empty)"
+                "this scene declares no feature names"
                 if not features
                 else "a scene of one feature has no other weight to keep"
             )
