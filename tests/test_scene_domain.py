@@ -499,40 +499,6 @@ def test_extra_polish_rounds_run_only_while_the_round_before_raised_the_tail(cas
         assert extra >= 1  # the first round raises something on these instances
 
 
-def test_extra_polish_rounds_need_a_round_to_follow():
-    from pydantic import ValidationError
-
-    from mjsuff.scenes.planning import PlanningSettings
-
-    with pytest.raises(ValidationError, match="needs polish_rounds"):
-        PlanningSettings(polish_rounds=0, polish_extra_rounds=1)
-
-
-def test_seed_zeroed_from_a_list_is_a_tuple_and_the_settings_stay_hashable():
-    from mjsuff.scenes.planning import PlanningSettings
-
-    settings = PlanningSettings(seed_zeroed=["lava", "water"])  # as TOML gives it
-    assert settings.seed_zeroed == ("lava", "water")
-    assert hash(settings) == hash(PlanningSettings(seed_zeroed=("lava", "water")))
-    assert settings.model_dump(mode="json")["seed_zeroed"] == ["lava", "water"]
-
-
-@pytest.mark.parametrize(
-    ("features", "problem"),
-    [
-        (("lava",), "a scene of one feature has no other weight to keep (expected it empty)"),
-        ((), "this scene declares no feature names (expected it empty)"),
-    ],
-)
-def test_seed_zeroed_needs_a_scene_of_two_or_more_declared_features(features, problem):
-    from mjsuff.scenes.planning import PlanningSettings
-
-    settings = PlanningSettings(seed_zeroed=["lava"])
-    PlanningSettings().check_seed_zeroed(features)  # nothing named: any scene
-    with pytest.raises(ValueError, match=re.escape(f"planning.seed_zeroed: {problem}")):
-        settings.check_seed_zeroed(features)
-
-
 def test_tolerances_define_unchanged_and_matching(case):
     domain, demos = case
     policy = domain.plan(domain.true_weights)
