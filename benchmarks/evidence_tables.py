@@ -8,7 +8,9 @@ poor demo); every rule's F1 and demos needed (the baselines at ``--epsilon``) wi
 bound rules' accuracy at their stop; how often the end-of-replicate truth was raised. With
 ``--paired``, the demos needed by each rule in RUN_DIR minus OTHER_RUN_DIR, replicate by replicate
 (the same instances when both runs share the seed: it checks that every shared check had the
-same pool start and poor flag), with a CI; the nEVD bound and π_MAP's true nEVD here minus there
+same pool start and poor flag), with a CI; each rule's F1 here and there with a paired bootstrap
+CI of the difference, and the replicates whose stop was right in one run only (exact McNemar
+test); the nEVD bound and π_MAP's true nEVD here minus there
 at each shared check (per count of demos, and per replicate); and the share of each replicate's
 checks whose nEVD bound is at least the truth, this run against OTHER_RUN_DIR (Wilcoxon
 signed-rank test over replicates), and, per nEVD threshold, whether the bound held at the rule's
@@ -27,7 +29,7 @@ import pandas as pd
 from scipy.stats import binomtest, wilcoxon
 
 from mjsuff.domain import TRUTH_SETTLED
-from mjsuff.experiment.measures import evaluated_rows, measure_group
+from mjsuff.experiment.measures import evaluated_rows, f1_score, measure_group, replicate_outcomes
 from mjsuff.experiment.run_summary import truth_totals
 
 BOOTSTRAP = 2000
@@ -124,15 +126,9 @@ def rule_rows(steps: pd.DataFrame, epsilon: float) -> list[tuple[str, float, pd.
 def rules(steps: pd.DataFrame, epsilon: float) -> str:
     text = "| rule | ε | F1 | demos needed | bound accuracy |\n| --- | --- | --- | --- | --- |\n"
     for label, eps, group, improvement in rule_rows(steps, epsilon):
-        reps = np.array(sorted(group["replicate"].unique()))
-        by_rep = {r: g for r, g in group.groupby("replicate")}
         m = measure_group(group, improvement, eps)
-
-        def f1_of(sample, by_rep=by_rep, improvement=improvement, eps=eps):
-            frame = pd.concat([by_rep[r].assign(replicate=i) for i, r in enumerate(sample)])
-            return measure_group(frame, improvement, eps)["f1"]
-
-        f_low, f_high = ci(reps, f1_of)
+        outcomes = replicate_outcomes(group, improvement, eps)[["stopped", "good"]].to_numpy(bool)
+        f_low, f_high = ci(outcomes, lambda rows: f1_score(rows[:, 0], rows[:, 1]))
         needed = evaluated_rows(group)["step"].to_numpy(float)
         d_low, d_high = ci(needed)
         acc = "–" if np.isnan(m["accuracy"]) else f"{m['accuracy']:.2f}"
@@ -206,6 +202,41 @@ def paired(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
         diff = (a[both] - b[both]).to_numpy(float)
         low, high = ci(diff)
         text += f"| {label} | {eps:g} | {diff.mean():+.2f} ({low:+.2f} to {high:+.2f}) | {len(both)} |\n"
+    return text
+
+
+def paired_f1(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
+    """Per rule, its F1 here and there on the replicates both runs share, with a *paired*
+    bootstrap CI of the difference (each resample takes the same replicates from both runs, so a
+    replicate both runs decide alike adds nothing to the spread, and a perfect F1 there does not
+    make a degenerate interval that one replicate falls out of); and the replicates whose stop was
+    right (TP or TN) in one run only, with an exact McNemar test."""
+    text = (
+        "| rule | ε | F1 here | there | here − there (paired 95% CI) | right here only | there only "
+        "| McNemar p | replicates |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n"
+    )
+    theirs = {(label, eps): (g, imp) for label, eps, g, imp in rule_rows(other, epsilon)}
+    rng = np.random.default_rng(0)
+    for label, eps, group, improvement in rule_rows(steps, epsilon):
+        if (label, eps) not in theirs:
+            continue
+        a = replicate_outcomes(group, improvement, eps).set_index("replicate")
+        b = replicate_outcomes(*theirs[label, eps][:1], improvement, eps).set_index("replicate")
+        reps = a.index.intersection(b.index)
+        sa, ga = a.loc[reps, "stopped"].to_numpy(bool), a.loc[reps, "good"].to_numpy(bool)
+        sb, gb = b.loc[reps, "stopped"].to_numpy(bool), b.loc[reps, "good"].to_numpy(bool)
+        idx = rng.integers(0, len(reps), (BOOTSTRAP, len(reps)))
+        diff = np.array([f1_score(sa[i], ga[i]) - f1_score(sb[i], gb[i]) for i in idx])
+        diff = diff[np.isfinite(diff)]
+        low, high = np.quantile(diff, [0.025, 0.975]) if diff.size else (np.nan, np.nan)
+        right_a, right_b = sa == ga, sb == gb
+        only_a, only_b = int(np.sum(right_a & ~right_b)), int(np.sum(~right_a & right_b))
+        mcnemar = binomtest(only_a, only_a + only_b).pvalue if only_a + only_b else 1.0
+        fa, fb = f1_score(sa, ga), f1_score(sb, gb)
+        text += (
+            f"| {label} | {eps:g} | {fa:.3f} | {fb:.3f} | {fa - fb:+.3f} ({low:+.3f} to {high:+.3f}) | "
+            f"{only_a} | {only_b} | {mcnemar:.2g} | {len(reps)} |\n"
+        )
     return text
 
 
@@ -290,6 +321,7 @@ def main() -> None:
         other = load(args.paired)
         print(same_schedule(steps, other))
         print(paired(steps, other, args.epsilon))
+        print(paired_f1(steps, other, args.epsilon))
         print(paired_bound(steps, other))
         print(paired_coverage(steps, other))
 

@@ -5,7 +5,7 @@ import math
 import pandas as pd
 import pytest
 
-from mjsuff.experiment.measures import measure_group, summarize
+from mjsuff.experiment.measures import f1_score, measure_group, replicate_outcomes, summarize
 
 
 def rows(replicate, decisions, nevds, bounds, pool_size=10, rule="nevd", param=0.2):
@@ -43,6 +43,29 @@ def test_stop_decisions_give_the_confusion_counts_and_f1():
     assert m["accuracy"] == pytest.approx(0.75)
     assert m["bound_error"] == pytest.approx(((0.15 - 0.1) + (0.1 - 0.4) + 0.6 + 0.4) / 4)
     assert m["stopped_fraction"] == 0.5
+
+
+def test_replicate_outcomes_are_the_rows_f1_counts():
+    """One row per replicate with its stop and whether it was truly sufficient: the TP, FP, FN and
+    TN of the test above, and ``f1_score`` of them is ``measure_group``'s F1 (the paired F1 in
+    ``benchmarks/evidence_tables.py`` is built on these)."""
+    frame = pd.DataFrame(
+        rows(0, [False, True, True], [0.5, 0.1, 0.0], [0.9, 0.15, 0.05])
+        + rows(1, [True, True, True], [0.4, 0.3, 0.0], [0.1, 0.1, 0.1])
+        + rows(2, [False, False, False], [0.5, 0.3, 0.1], [0.9, 0.8, 0.7])
+        + rows(3, [False, False, False], [0.5, 0.4, 0.3], [0.9, 0.8, 0.7])
+    )
+    out = replicate_outcomes(frame.sample(frac=1.0, random_state=1), improvement=False, threshold=0.2)
+    assert out["replicate"].tolist() == [0, 1, 2, 3]
+    assert out["step"].tolist() == [2, 1, 3, 3]
+    assert out["stopped"].tolist() == [True, True, False, False]
+    assert out["good"].tolist() == [True, False, True, False]  # TP, FP, FN, TN
+    stopped, good = out["stopped"].to_numpy(), out["good"].to_numpy()
+    assert f1_score(stopped, good) == measure_group(frame, False, 0.2)["f1"] == pytest.approx(0.5)
+    assert f1_score(stopped[[0]], good[[0]]) == 1.0
+    assert math.isnan(f1_score(stopped[[3]], good[[3]]))  # a lone TN has no F1
+    # Improvement truth: true PIOB ≥ the threshold (0.0 in every row here).
+    assert replicate_outcomes(frame, improvement=True, threshold=0.0)["good"].all()
 
 
 def test_baselines_are_scored_at_every_nevd_threshold():

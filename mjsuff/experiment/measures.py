@@ -74,6 +74,20 @@ def evaluated_rows(frame: pd.DataFrame) -> pd.DataFrame:
     return rows.sort_values("replicate", kind="stable")
 
 
+def replicate_outcomes(frame: pd.DataFrame, improvement: bool, threshold: float) -> pd.DataFrame:
+    """One rule's evaluated row per replicate (``evaluated_rows``) with ``good``: its policy
+    truly sufficient there (true nEVD ≤ ``threshold``, or true PIOB ≥ it). ``stopped & good``
+    is a TP, ``stopped & ~good`` an FP, ``~stopped & good`` an FN (module docstring)."""
+    rows = evaluated_rows(frame)
+    return rows.assign(good=_truth(rows, improvement, threshold))
+
+
+def f1_score(stopped: np.ndarray, good: np.ndarray) -> float:
+    """F1 (Eq. 10) of replicate decisions; ``stopped`` and ``good`` are boolean, one per replicate."""
+    tp = int(np.sum(stopped & good))
+    return _f1(tp, int(np.sum(stopped & ~good)), int(np.sum(~stopped & good)))
+
+
 def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> dict[str, Any]:
     """All measures for one rule and parameter, against the truth threshold ``threshold``."""
     frame = frame.sort_values(["replicate", "step"])
@@ -84,8 +98,8 @@ def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> d
     step_fn = int((~decision & truth).sum())
     step_tn = int((~decision & ~truth).sum())
 
-    rows = evaluated_rows(frame)
-    good = _truth(rows, improvement, threshold)
+    rows = replicate_outcomes(frame, improvement, threshold)
+    good = rows["good"].to_numpy(bool)
     stopped = rows["stopped"].to_numpy(bool)
     tp, fp = int((stopped & good).sum()), int((stopped & ~good).sum())
     fn, tn = int((~stopped & good).sum()), int((~stopped & ~good).sum())
@@ -102,7 +116,7 @@ def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> d
     paper_shares = paper_steps / sufficient["pool_size"].to_numpy(float)
     return {
         "replicates": len(needed),
-        "f1": _f1(tp, fp, fn),
+        "f1": f1_score(stopped, good),
         "accuracy": float(np.mean(accurate)) if accurate.size else math.nan,
         "bound_error": float(np.mean(errors)) if errors.size else math.nan,
         "demos_needed": float(needed_arr.mean()),
