@@ -31,6 +31,7 @@ from scipy.stats import binomtest, wilcoxon
 from mjsuff.domain import TRUTH_SETTLED
 from mjsuff.experiment.measures import evaluated_rows, f1_score, measure_group, replicate_outcomes
 from mjsuff.experiment.run_summary import truth_totals
+from mjsuff.report.paired import paired_f1 as paired_f1_of
 
 BOOTSTRAP = 2000
 RULE_NAMES = {
@@ -206,36 +207,25 @@ def paired(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
 
 
 def paired_f1(steps: pd.DataFrame, other: pd.DataFrame, epsilon: float) -> str:
-    """Per rule, its F1 here and there on the replicates both runs share, with a *paired*
-    bootstrap CI of the difference (each resample takes the same replicates from both runs, so a
-    replicate both runs decide alike adds nothing to the spread, and a perfect F1 there does not
-    make a degenerate interval that one replicate falls out of); and the replicates whose stop was
-    right (TP or TN) in one run only, with an exact McNemar test."""
+    """Per rule, its F1 here and there with a paired bootstrap CI of the difference, and the
+    replicates whose stop was right in one run only (``mjsuff.report.paired``)."""
     text = (
         "| rule | ε | F1 here | there | here − there (paired 95% CI) | right here only | there only "
         "| McNemar p | replicates |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n"
     )
-    theirs = {(label, eps): (g, imp) for label, eps, g, imp in rule_rows(other, epsilon)}
-    rng = np.random.default_rng(0)
+    theirs = {(label, eps): g for label, eps, g, _ in rule_rows(other, epsilon)}
     for label, eps, group, improvement in rule_rows(steps, epsilon):
         if (label, eps) not in theirs:
             continue
-        a = replicate_outcomes(group, improvement, eps).set_index("replicate")
-        b = replicate_outcomes(*theirs[label, eps][:1], improvement, eps).set_index("replicate")
-        reps = a.index.intersection(b.index)
-        sa, ga = a.loc[reps, "stopped"].to_numpy(bool), a.loc[reps, "good"].to_numpy(bool)
-        sb, gb = b.loc[reps, "stopped"].to_numpy(bool), b.loc[reps, "good"].to_numpy(bool)
-        idx = rng.integers(0, len(reps), (BOOTSTRAP, len(reps)))
-        diff = np.array([f1_score(sa[i], ga[i]) - f1_score(sb[i], gb[i]) for i in idx])
-        diff = diff[np.isfinite(diff)]
-        low, high = np.quantile(diff, [0.025, 0.975]) if diff.size else (np.nan, np.nan)
-        right_a, right_b = sa == ga, sb == gb
-        only_a, only_b = int(np.sum(right_a & ~right_b)), int(np.sum(~right_a & right_b))
-        mcnemar = binomtest(only_a, only_a + only_b).pvalue if only_a + only_b else 1.0
-        fa, fb = f1_score(sa, ga), f1_score(sb, gb)
+        here = replicate_outcomes(group, improvement, eps)
+        there = replicate_outcomes(theirs[label, eps], improvement, eps)
+        c = paired_f1_of(here, there, np.random.default_rng(0))
+        if c is None:
+            continue
         text += (
-            f"| {label} | {eps:g} | {fa:.3f} | {fb:.3f} | {fa - fb:+.3f} ({low:+.3f} to {high:+.3f}) | "
-            f"{only_a} | {only_b} | {mcnemar:.2g} | {len(reps)} |\n"
+            f"| {label} | {eps:g} | {c.here:.3f} | {c.there:.3f} | {c.difference:+.3f} ({c.low:+.3f} to "
+            f"{c.high:+.3f}) | {c.right_here_only} | {c.right_there_only} | {c.mcnemar_p:.2g} | "
+            f"{c.replicates} |\n"
         )
     return text
 

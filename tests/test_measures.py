@@ -66,6 +66,7 @@ def test_replicate_outcomes_are_the_rows_f1_counts():
     assert math.isnan(f1_score(stopped[[3]], good[[3]]))  # a lone TN has no F1
     # Improvement truth: true PIOB ≥ the threshold (0.0 in every row here).
     assert replicate_outcomes(frame, improvement=True, threshold=0.0)["good"].all()
+    assert not replicate_outcomes(frame, improvement=True, threshold=0.1)["good"].any()
 
 
 def test_baselines_are_scored_at_every_nevd_threshold():

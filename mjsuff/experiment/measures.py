@@ -83,7 +83,9 @@ def replicate_outcomes(frame: pd.DataFrame, improvement: bool, threshold: float)
 
 
 def f1_score(stopped: np.ndarray, good: np.ndarray) -> float:
-    """F1 (Eq. 10) of replicate decisions; ``stopped`` and ``good`` are boolean, one per replicate."""
+    """F1 (Eq. 10) of replicate decisions, one of each per replicate (read as booleans); NaN
+    without a TP, FP or FN."""
+    stopped, good = np.asarray(stopped, bool), np.asarray(good, bool)
     tp = int(np.sum(stopped & good))
     return _f1(tp, int(np.sum(stopped & ~good)), int(np.sum(~stopped & good)))
 
@@ -116,7 +118,7 @@ def measure_group(frame: pd.DataFrame, improvement: bool, threshold: float) -> d
     paper_shares = paper_steps / sufficient["pool_size"].to_numpy(float)
     return {
         "replicates": len(needed),
-        "f1": f1_score(stopped, good),
+        "f1": _f1(tp, fp, fn),
         "accuracy": float(np.mean(accurate)) if accurate.size else math.nan,
         "bound_error": float(np.mean(errors)) if errors.size else math.nan,
         "demos_needed": float(needed_arr.mean()),
