@@ -47,8 +47,8 @@ def test_stop_decisions_give_the_confusion_counts_and_f1():
 
 def test_replicate_outcomes_are_the_rows_f1_counts():
     """One row per replicate with its stop and whether it was truly sufficient: the TP, FP, FN and
-    TN of the test above, and ``f1_score`` of them is ``measure_group``'s F1 (the paired F1 in
-    ``benchmarks/evidence_tables.py`` is built on these)."""
+    TN of the test above, and ``f1_score`` of them is ``measure_group``'s F1 (``mjsuff.report.paired``
+    is built on these)."""
     frame = pd.DataFrame(
         rows(0, [False, True, True], [0.5, 0.1, 0.0], [0.9, 0.15, 0.05])
         + rows(1, [True, True, True], [0.4, 0.3, 0.0], [0.1, 0.1, 0.1])
